@@ -1,0 +1,44 @@
+"""A set of block poses observed at one instant: detector output or simulator ground truth."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from msgs_py.errors import MessageError
+from msgs_py.poses import BlockPose
+
+
+@dataclass(frozen=True, slots=True)
+class BlockSet:
+    """Blocks seen at ``stamp_ns`` (ns, the image or simulation time), poses in ``frame_id``.
+
+    ``missing`` lists known blocks that were *not* seen in this frame (occluded by the arm,
+    say), so a consumer can tell "gone" from "hidden". ``reprojection_px`` optionally holds
+    each detected tag's reprojection error in pixels.
+    """
+
+    blocks: tuple[BlockPose, ...]
+    stamp_ns: int = 0
+    frame_id: str = "world"
+    block_size: float = 0.0508
+    missing: tuple[int, ...] = ()
+    reprojection_px: dict[int, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "blocks", tuple(self.blocks))
+        object.__setattr__(self, "missing", tuple(self.missing))
+        seen: set[int] = set()
+        for k, b in enumerate(self.blocks):
+            if b.id in seen:
+                raise MessageError(f"blocks[{k}].id", b.id, "duplicate block id")
+            seen.add(b.id)
+        for k, block_id in enumerate(self.missing):
+            if block_id in seen:
+                raise MessageError(f"missing[{k}]", block_id, "listed both as seen and missing")
+
+    @property
+    def ids(self) -> list[int]:
+        return [b.id for b in self.blocks]
+
+    def by_id(self) -> dict[int, BlockPose]:
+        return {b.id: b for b in self.blocks}

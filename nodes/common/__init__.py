@@ -1,0 +1,1 @@
+"""Plumbing shared by every node: parameters, QoS, the ``main()`` idiom, paths, test harness."""

@@ -1,0 +1,143 @@
+"""Node parameters declared from frozen dataclasses: YAML -> declared parameters -> config.
+
+A config dataclass lists each parameter once, with its default, unit and description::
+
+    @dataclass(frozen=True)
+    class PlannerConfig:
+        a1: float = param(1.0, "cost of a pick-and-place action")
+        budget_s: float = param(30.0, "planning time budget", unit="s")
+
+``declare_config(node, PlannerConfig)`` declares every field on the node (so
+``--ros-args -p a1:=2.0`` and ``--params-file`` work and ``ros2 param describe`` shows the
+description), reads the values back, coerces them to the field's type and builds the
+dataclass, whose ``__post_init__`` runs the cross-field checks. ``describe_config`` renders
+the same information for ``--help`` and the README.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import MISSING, dataclass, fields
+from typing import Any, TypeVar
+
+C = TypeVar("C")
+
+
+@dataclass(frozen=True, slots=True)
+class ParamMeta:
+    description: str
+    unit: str = ""
+    name: str | None = None
+    read_only: bool = False
+
+
+def param(
+    default: Any,
+    description: str,
+    *,
+    unit: str = "",
+    name: str | None = None,
+    read_only: bool = False,
+) -> Any:
+    """A dataclass field that is also a ROS parameter (``name`` defaults to the field name).
+
+    Sequence defaults are stored as tuples so the config stays immutable.
+    """
+    if isinstance(default, list):
+        default = tuple(default)
+    return dataclasses.field(
+        default=default, metadata={"ros": ParamMeta(description, unit, name, read_only)}
+    )
+
+
+def _param_fields(cls: type) -> list[tuple[dataclasses.Field, ParamMeta]]:
+    out = []
+    for f in fields(cls):
+        meta = f.metadata.get("ros")
+        if meta is not None:
+            out.append((f, meta))
+    return out
+
+
+def parameter_name(f: dataclasses.Field, meta: ParamMeta, prefix: str = "") -> str:
+    return prefix + (meta.name or f.name)
+
+
+def _to_ros(value: Any) -> Any:
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _coerce(name: str, value: Any, default: Any) -> Any:
+    """Convert a parameter value to the type of its default, or explain why not."""
+    if isinstance(default, bool):
+        if isinstance(value, bool):
+            return value
+    elif isinstance(default, int):
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+    elif isinstance(default, float):
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return float(value)
+    elif isinstance(default, str):
+        if isinstance(value, str):
+            return value
+    elif isinstance(default, tuple):
+        if isinstance(value, list | tuple):
+            items = tuple(value)
+            if default and isinstance(default[0], float):
+                if all(isinstance(v, int | float) and not isinstance(v, bool) for v in items):
+                    return tuple(float(v) for v in items)
+            else:
+                return items
+    else:
+        return value
+    raise ValueError(
+        f"parameter '{name}': expected {type(default).__name__} like {default!r}, got {value!r}"
+    )
+
+
+def declare_config(node: Any, cls: type[C], prefix: str = "") -> C:
+    """Declare ``cls``'s fields as parameters of ``node`` and return the filled config.
+
+    Raises:
+        ValueError: a value of the wrong type or one the config's own checks refuse; the
+            message names the parameter.
+    """
+    from rcl_interfaces.msg import ParameterDescriptor
+
+    values: dict[str, Any] = {}
+    for f, meta in _param_fields(cls):
+        name = parameter_name(f, meta, prefix)
+        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+        description = meta.description + (f" [{meta.unit}]" if meta.unit else "")
+        descriptor = ParameterDescriptor(
+            description=description, read_only=meta.read_only, dynamic_typing=True
+        )
+        node.declare_parameter(name, _to_ros(default), descriptor)
+        values[f.name] = _coerce(name, node.get_parameter(name).value, default)
+    return cls(**values)
+
+
+def describe_config(cls: type, prefix: str = "") -> list[dict[str, str]]:
+    """Rows of (name, type, default, unit, description) for help texts and docs."""
+    rows = []
+    for f, meta in _param_fields(cls):
+        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+        rows.append(
+            {
+                "name": parameter_name(f, meta, prefix),
+                "type": type(default).__name__ if not isinstance(default, tuple) else "list",
+                "default": repr(_to_ros(default)),
+                "unit": meta.unit,
+                "description": meta.description,
+            }
+        )
+    return rows
+
+
+def config_overrides(config: Any, prefix: str = "") -> dict[str, Any]:
+    """The parameter values of a config instance, by parameter name (for launching nodes)."""
+    return {
+        parameter_name(f, meta, prefix): _to_ros(getattr(config, f.name))
+        for f, meta in _param_fields(type(config))
+    }

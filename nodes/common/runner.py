@@ -1,0 +1,93 @@
+"""The ``main()`` of every densepack node: ros2-run-style arguments, clean shutdown, --help.
+
+Each node module ends with::
+
+    SPEC = NodeSpec("planner", PlannerNode, "Plans ...", configs=(("", PlannerConfig),))
+
+    def main(args=None):
+        return run_node(SPEC, args)
+
+``run_node`` strips ``--ros-args ...`` (handed to rclpy untouched), answers ``--help`` with
+the node's parameter table, spins the node on a multi-threaded executor and shuts down with
+the Jazzy idiom. It returns (and the console script exits with) 0 on Ctrl-C / SIGTERM and
+1 when the node failed to start or died, so ``densepack-cell`` can tell a crash from a stop.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from nodes.common.params import describe_config
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    """What a node is: its default name, how to build it, and its parameter groups."""
+
+    name: str
+    factory: Callable[..., Any]
+    description: str
+    configs: tuple[tuple[str, type], ...] = ()
+    topics: str = ""
+    threads: int = 4
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def help_text(self) -> str:
+        lines = [self.description.strip(), ""]
+        if self.topics:
+            lines += [self.topics.strip(), ""]
+        rows = [row for prefix, cls in self.configs for row in describe_config(cls, prefix)]
+        if rows:
+            lines.append("parameters (set with --ros-args -p NAME:=VALUE or --params-file FILE):")
+            width = max(len(r["name"]) for r in rows)
+            for r in rows:
+                unit = f" [{r['unit']}]" if r["unit"] else ""
+                lines.append(f"  {r['name']:<{width}}  {r['default']}{unit}  {r['description']}")
+        return "\n".join(lines)
+
+
+def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """Separate a command line into (user args, full argv for rclpy)."""
+    from rclpy.utilities import remove_ros_args
+
+    return list(remove_ros_args(list(argv)))[1:], list(argv)
+
+
+def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
+    """Run ``spec``'s node until shutdown; returns the process exit code."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+
+    argv = list(sys.argv if args is None else [f"densepack-{spec.name}", *args])
+    user_args, ros_argv = split_ros_args(argv)
+    parser = argparse.ArgumentParser(
+        prog=f"densepack-{spec.name}",
+        description=spec.help_text(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="ROS arguments go after --ros-args, e.g. --ros-args --params-file "
+        f"config/{spec.name}.yaml -p use_sim_time:=true -r __node:=my_{spec.name}",
+    )
+    parser.parse_args(user_args)
+
+    rclpy.init(args=ros_argv)  # installs SIGINT/SIGTERM handlers that shut the context down
+    node = None
+    code = 0
+    try:
+        node = spec.factory()
+        executor = MultiThreadedExecutor(num_threads=spec.threads)
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as err:  # a node that dies reports why and exits non-zero
+        print(f"[{spec.name}] fatal: {type(err).__name__}: {err}", file=sys.stderr, flush=True)
+        code = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

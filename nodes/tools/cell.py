@@ -1,0 +1,220 @@
+"""``densepack-cell``: our launch file.
+
+Starts the node set described by a cell file (``config/cell.yaml``): each node as its own
+process by default (``python -m <module> --ros-args --params-file ...``, extra ROS
+arguments passed through), or all in this process on one MultiThreadedExecutor with
+``--in-process``. Every log line is prefixed with its node's name. Ctrl-C or SIGTERM shuts
+everything down cleanly; the launcher exits non-zero when a node dies. Nodes whose code
+is not in this installation are reported as missing and the rest start anyway.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from nodes.common.paths import config_path
+from nodes.common.runner import split_ros_args
+
+#: Node name -> module that defines ``SPEC`` (a NodeSpec) and ``main``.
+NODE_MODULES = {
+    "sim": "nodes.sim.node",
+    "detector": "nodes.detector.node",
+    "planner": "nodes.planner.node",
+    "executor": "nodes.executor.node",
+    "goal": "nodes.tools.goal",
+}
+
+SHUTDOWN_GRACE_S = 10.0
+
+
+@dataclass(frozen=True)
+class NodeLaunch:
+    name: str
+    module: str
+    params_files: tuple[Path, ...] = ()
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+    def ros_args(self, extra: Sequence[str] = ()) -> list[str]:
+        args = ["--ros-args"]
+        for path in self.params_files:
+            args += ["--params-file", str(path)]
+        for key, value in self.parameters.items():
+            args += ["-p", f"{key}:={_ros_value(value)}"]
+        extra = list(extra)
+        if extra and extra[0] == "--ros-args":
+            extra = extra[1:]
+        return args + extra
+
+
+def _ros_value(value: Any) -> str:
+    return yaml.safe_dump(value, default_flow_style=True).strip().removesuffix("...").strip()
+
+
+def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any] | None = None):
+    """Read a cell file; returns (launches to start, names that are not implemented)."""
+    data = yaml.safe_load(path.read_text()) or {}
+    nodes = data.get("nodes") or {}
+    shared = dict(data.get("parameters") or {})
+    shared.update(extra_params or {})
+    unknown = [n for n in (*nodes, *only) if n not in NODE_MODULES]
+    if unknown:
+        raise SystemExit(f"densepack-cell: unknown node(s) {unknown}; known: {list(NODE_MODULES)}")
+    launches, missing = [], []
+    for name, spec in nodes.items():
+        if only and name not in only:
+            continue
+        module = NODE_MODULES[name]
+        if importlib.util.find_spec(module.rsplit(".", 1)[0]) is None or (
+            importlib.util.find_spec(module) is None
+        ):
+            missing.append(name)
+            continue
+        spec = spec or {}
+        files = tuple(config_path(p) for p in spec.get("params", []))
+        params = dict(shared)
+        params.update(spec.get("parameters") or {})
+        launches.append(NodeLaunch(name, module, files, params))
+    return launches, missing
+
+
+# --- one process per node ---------------------------------------------------------------------
+def _pump(prefix: str, stream: Any, lock: threading.Lock) -> None:
+    for line in iter(stream.readline, ""):
+        with lock:
+            sys.stdout.write(f"[{prefix}] {line}")
+            sys.stdout.flush()
+    stream.close()
+
+
+def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> int:
+    env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
+    lock = threading.Lock()
+    procs: dict[str, subprocess.Popen] = {}
+    stop = threading.Event()
+
+    def request_stop(*_: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    for launch in launches:
+        cmd = [sys.executable, "-m", launch.module, *launch.ros_args(extra_ros)]
+        proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+            start_new_session=True,
+        )
+        procs[launch.name] = proc
+        threading.Thread(target=_pump, args=(launch.name, proc.stdout, lock), daemon=True).start()
+        print(f"[cell] started {launch.name} (pid {proc.pid})", flush=True)
+
+    code = 0
+    while not stop.is_set():
+        for name, proc in procs.items():
+            rc = proc.poll()
+            if rc is not None and rc != 0:
+                print(f"[cell] node {name} died (exit code {rc}); stopping the cell", flush=True)
+                code = 1
+                stop.set()
+        if all(p.poll() is not None for p in procs.values()):
+            break
+        stop.wait(0.2)
+    _terminate(procs)
+    return code
+
+
+def _terminate(procs: dict[str, subprocess.Popen]) -> None:
+    for proc in procs.values():
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + SHUTDOWN_GRACE_S
+    for name, proc in procs.items():
+        try:
+            proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            print(f"[cell] {name} did not stop in {SHUTDOWN_GRACE_S} s; killing it", flush=True)
+            proc.kill()
+            proc.wait()
+    print("[cell] all nodes stopped", flush=True)
+
+
+# --- all nodes in this process ----------------------------------------------------------------
+def run_in_process(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> int:
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+
+    os.environ.setdefault("RCUTILS_CONSOLE_OUTPUT_FORMAT", "[{name}] [{severity}] {message}")
+    rclpy.init(args=["densepack-cell"])
+    executor = MultiThreadedExecutor(num_threads=max(4, 2 * len(launches)))
+    built = []
+    code = 0
+    try:
+        for launch in launches:
+            spec = importlib.import_module(launch.module).SPEC
+            node = spec.factory(cli_args=launch.ros_args(extra_ros))
+            built.append(node)
+            executor.add_node(node)
+            print(f"[cell] started {launch.name} in-process", flush=True)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as err:
+        print(f"[cell] a node died: {type(err).__name__}: {err}", flush=True)
+        code = 1
+    finally:
+        for node in built:
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.try_shutdown()
+        print("[cell] all nodes stopped", flush=True)
+    return code
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="densepack-cell",
+        description="Start the densepack node set (our launch file). ROS arguments after "
+        "--ros-args are passed to every node.",
+    )
+    parser.add_argument("cell", nargs="?", default="cell.yaml", help="cell file (config/cell.yaml)")
+    parser.add_argument("--in-process", action="store_true", help="one process, one executor")
+    parser.add_argument("--nodes", default="", help="comma-separated subset to start")
+    parser.add_argument("--scene", help="scene file for the sim and the goal publisher")
+    parser.add_argument("--list", action="store_true", help="print the node set and exit")
+    return parser
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv if args is None else ["densepack-cell", *args])
+    user_args, _ = split_ros_args(argv)
+    extra_ros = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
+    opts = build_parser().parse_args(user_args)
+    extra_params = {"scene_file": str(Path(opts.scene).resolve())} if opts.scene else {}
+    only = [n for n in opts.nodes.split(",") if n]
+    launches, missing = load_cell(config_path(opts.cell), only, extra_params)
+    if missing:
+        print(f"[cell] not implemented yet, not started: {', '.join(missing)}", flush=True)
+    if opts.list or not launches:
+        for launch in launches:
+            print(f"{launch.name}: {launch.module} {' '.join(launch.ros_args(extra_ros))}")
+        return 0 if launches or opts.list else 1
+    if opts.in_process:
+        return run_in_process(launches, extra_ros)
+    return run_processes(launches, extra_ros)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,50 @@
+"""Helpers shared by tests that start separate processes."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+BIN = Path(sys.executable).parent
+
+
+def script(name: str) -> str:
+    """Path of a console script installed in this venv (e.g. ``densepack-echo``)."""
+    return str(BIN / name)
+
+
+def spawn_python(code: str, **kwargs) -> subprocess.Popen:
+    """Run a Python snippet in a separate process on this session's ROS domain."""
+    return subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        **kwargs,
+    )
+
+
+PUBLISHER_SNIPPET = """
+import json, time, rclpy
+from std_msgs.msg import String
+from nodes.common.qos import {qos}
+rclpy.init()
+node = rclpy.create_node("test_publisher")
+pub = node.create_publisher(String, "{topic}", {qos})
+for k in range({count}):
+    pub.publish(String(data={payload}))
+    time.sleep({period})
+time.sleep({linger})
+node.destroy_node(); rclpy.shutdown()
+"""
+
+
+def spawn_string_publisher(topic: str, payload: str, count: int = 200, period: float = 0.1,
+                           qos: str = "RELIABLE", linger: float = 0.0) -> subprocess.Popen:
+    return spawn_python(PUBLISHER_SNIPPET.format(
+        topic=topic, payload=payload, count=count, period=period, qos=qos, linger=linger))
