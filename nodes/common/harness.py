@@ -36,8 +36,11 @@ from nodes.common.qos import RELIABLE
 _DOMAIN_LOCKS: list[Any] = []  # keep lock files open for the life of the process
 
 
-def allocate_domain_id(lo: int = 1, hi: int = 100) -> int:
-    """A DDS domain id no other live process on this machine holds (via flock)."""
+def allocate_domain_id(lo: int = 1, hi: int = 80) -> int:
+    """A DDS domain id no other live process on this machine holds (via flock).
+
+    Ids 81-101 stay free for people running a cell by hand next to a test session.
+    """
     lock_dir = Path(tempfile.gettempdir()) / "densepack-domains"
     lock_dir.mkdir(exist_ok=True)
     candidates = list(range(lo, hi + 1))
