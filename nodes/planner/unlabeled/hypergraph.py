@@ -1,0 +1,326 @@
+"""The hypergraph of rearrangement pebble graphs: from the start arrangement to the goal.
+
+A hypernode is (RPG, signature): an arrangement class of one graph. Two hypernodes are
+joined when their graphs share an arrangement consistent with both signatures (the blocks
+stay put, only the graph around them changes), or, inside one graph, by a one-way arc that
+moves a block between components. The goal hypernode is any class holding an arrangement
+with every required site occupied and every forbidden one empty.
+
+The paper samples graphs until start and goal connect. Random graphs rarely contain the
+narrow sequences a dense grid needs (its centre must be filled before its neighbours even
+exist as nodes), so graphs are *proposed* from the arrangement at hand instead: the arrangement
+plus ``b`` new sites, which are the next goal slots in assembly order and/or buffer sites out
+of the way. Inside the new graph the unlabeled solver moves the blocks to the best arrangement
+of their class (goal slots first, nothing left on a site that blocks a goal slot), and useful
+arcs are taken (a spare block pushed into a slot only reachable one way). The search over
+these hypernodes is weighted A*: g = actions so far, h = a lower bound on the actions left
+(unfilled slots, blocks that must still leave their site).
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import time
+from collections.abc import Callable, Collection, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from nodes.planner.unlabeled.rpg import (
+    RearrangementPebbleGraph,
+    Site,
+    Transfer,
+    TransferSpace,
+    best_arrangement,
+    build_rpg,
+)
+
+
+class SearchSpace(TransferSpace, Protocol):
+    """What the search needs beyond transfers: fresh buffer sites and what is in the way."""
+
+    def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
+                rng: np.random.Generator) -> list[Site]:
+        """Up to ``count`` new sites, compatible with ``nodes`` and with each other, out of
+        the goal's way, preferably close to the sites ``near``."""
+        ...
+
+    def obstructs(self, site: Site) -> bool:
+        """The site is in the goal's way (e.g. in the goal area but not a slot)."""
+        ...
+
+
+def _never(site: Site) -> bool:
+    return False
+
+
+@dataclass(frozen=True)
+class ArrangementGoal:
+    """Sites that must hold a block (in the order to fill them), sites that must be empty."""
+
+    required: tuple[Site, ...]
+    forbidden: Callable[[Site], bool] = _never
+
+
+@dataclass(frozen=True)
+class SearchConfig:
+    b: int = 2  # extra empty nodes per RPG
+    weight: float = 1.5  # A* weight on the heuristic
+    deadline: float = float("inf")  # time.monotonic() deadline
+    max_expansions: int = 5000
+    max_proposals: int = 4  # RPGs proposed per expansion
+
+
+@dataclass
+class SearchStats:
+    expansions: int = 0
+    rpgs: int = 0
+    hypernodes: int = 0
+    arcs_taken: int = 0
+    hyperpath: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
+
+    def as_metrics(self) -> dict[str, float]:
+        return {"expansions": float(self.expansions), "rpgs": float(self.rpgs),
+                "hypernodes": float(self.hypernodes), "arcs_taken": float(self.arcs_taken),
+                "hyperpath_length": float(len(self.hyperpath))}
+
+
+class SearchFailure(Exception):
+    def __init__(self, reason: str, stats: SearchStats) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.stats = stats
+
+
+@dataclass
+class _Node:
+    arrangement: frozenset[Site]
+    rpg: RearrangementPebbleGraph | None
+    actions: int
+    cost: float
+    moves: list[Transfer]
+    parent: _Node | None
+    h: int = 0
+    progress: int = 0
+
+
+class HypergraphSearch:
+    """Weighted A* over hypernodes; ``run`` returns the transfers from start to goal."""
+
+    def __init__(self, space: SearchSpace, start: Collection[Site], goal: ArrangementGoal,
+                 config: SearchConfig, rng: np.random.Generator) -> None:
+        self.space = space
+        self.start = frozenset(start)
+        self.goal = goal
+        self.required = frozenset(goal.required)
+        self.config = config
+        self.rng = rng
+        self.stats = SearchStats()
+        self._rpgs: dict[frozenset[Site], RearrangementPebbleGraph] = {}
+        self._hyper: dict[tuple[frozenset[Site], tuple[int, ...]], int] = {}
+        self._hard: dict[Site, bool] = {}
+        self._soft: dict[Site, bool] = {}
+        if config.b < 0:
+            raise ValueError(f"b must be >= 0, got {config.b}")
+
+    # --- site classes ----------------------------------------------------------------------
+    def hard_bad(self, site: Site) -> bool:
+        """A block on this site must leave: forbidden, or overlapping a goal slot."""
+        if site not in self._hard:
+            self._hard[site] = site not in self.required and (
+                self.goal.forbidden(site)
+                or any(self.space.conflicts(site, g) for g in self.goal.required))
+        return self._hard[site]
+
+    def soft_bad(self, site: Site) -> bool:
+        if site not in self._soft:
+            self._soft[site] = site not in self.required and self.space.obstructs(site)
+        return self._soft[site]
+
+    def rank(self, site: Site) -> float:
+        if site in self.required:
+            return 0.0
+        if self.hard_bad(site):
+            return 3.0
+        return 2.0 if self.soft_bad(site) else 1.0
+
+    def progress(self, arrangement: frozenset[Site]) -> int:
+        """Tie-break between equally good hypernodes: slots early in the fill order count
+        more (filling a slot before the ones behind it can wall them in)."""
+        n = len(self.goal.required)
+        return sum(n - i for i, s in enumerate(self.goal.required) if s in arrangement)
+
+    def heuristic(self, arrangement: frozenset[Site]) -> int:
+        unfilled = len(self.required - arrangement)
+        leaving = sum(1 for s in arrangement if self.hard_bad(s))
+        return max(unfilled, leaving)
+
+    # --- graphs ----------------------------------------------------------------------------
+    def rpg(self, nodes: frozenset[Site]) -> RearrangementPebbleGraph:
+        if nodes not in self._rpgs:
+            self._rpgs[nodes] = build_rpg(self.space, nodes)
+            self.stats.rpgs += 1
+        return self._rpgs[nodes]
+
+    def note_hypernode(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site]
+                       ) -> tuple[int, tuple[int, ...]]:
+        sig = rpg.signature(arrangement)
+        key = (rpg.nodes, sig)
+        if key not in self._hyper:
+            self._hyper[key] = len(self._hyper)
+            self.stats.hypernodes += 1
+        return self._hyper[key], sig
+
+    def forbidden_in(self, rpg: RearrangementPebbleGraph) -> frozenset[Site]:
+        return frozenset(s for s in rpg.nodes if s not in self.required and self.goal.forbidden(s))
+
+    def is_goal(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site]) -> bool:
+        return rpg.satisfiable(rpg.signature(arrangement), self.required, self.forbidden_in(rpg))
+
+    # --- proposals -------------------------------------------------------------------------
+    def proposals(self, arrangement: frozenset[Site]) -> list[frozenset[Site]]:
+        """New node sets: the arrangement plus b new sites (goal slots and/or buffers)."""
+        b = self.config.b
+        unfilled = [s for s in self.goal.required if s not in arrangement]
+        free = [s for s in unfilled
+                if not any(self.space.conflicts(s, a) for a in arrangement)]
+        offenders = [a for a in arrangement if self.hard_bad(a) or self.soft_bad(a)]
+        movers = offenders or [a for a in sorted(arrangement) if a not in self.required]
+        j_max = min(b, len(free))
+        counts = [j_max, j_max - 1, 1, 0]
+        picks: list[list[Site]] = []
+        for j in dict.fromkeys(c for c in counts if 0 <= c <= j_max):
+            if j == 0 and j_max > 0 and not offenders:
+                continue
+            picks.append(free[:j])
+        if len(free) > j_max >= 1:  # one variety: other slots than the first ones
+            chosen = self.rng.choice(len(free), size=j_max, replace=False)
+            picks.append([free[i] for i in sorted(chosen)])
+        out: list[frozenset[Site]] = []
+        for slots in picks:
+            extra = self.space.buffers(arrangement | set(slots), movers, b - len(slots),
+                                       self.rng) if b > len(slots) else []
+            nodes = arrangement | set(slots) | set(extra)
+            if nodes != arrangement and nodes not in out:
+                out.append(nodes)
+            if len(out) >= self.config.max_proposals:
+                break
+        return out
+
+    # --- settling inside one graph ---------------------------------------------------------
+    def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site]
+               ) -> tuple[frozenset[Site], list[Transfer]]:
+        """Best arrangement of the class, then useful arcs, repeatedly; with the moves."""
+        moves: list[Transfer] = []
+        current = arrangement
+        for _ in range(len(rpg.nodes) + 1):
+            target = best_arrangement(rpg, current, self.rank)
+            moves += rpg.moves_to(current, target)
+            current = target
+            arc = self.useful_arc(rpg, current)
+            if arc is None:
+                break
+            prep, current = self.take_arc(rpg, current, arc)
+            moves += prep
+            self.stats.arcs_taken += 1
+        return current, moves
+
+    def useful_arc(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site]
+                   ) -> Transfer | None:
+        """An arc from a component with a block to spare into one that needs a block (an
+        unfilled goal slot), or out of a component whose blocks cannot all get out of the
+        way inside it; cheapest first."""
+        sig = rpg.signature(arrangement)
+        need, spare, crowded, room = [], [], [], []
+        for k, comp in enumerate(rpg.components):
+            req = sum(1 for s in comp if s in self.required)
+            good = sum(1 for s in comp if self.rank(s) <= 1.0)
+            need.append(sig[k] < req)
+            spare.append(sig[k] > req)
+            crowded.append(sig[k] > good)
+            room.append(sig[k] < good)
+        best = None
+        for (u, v), t in rpg.arcs.items():
+            a, b = rpg.comp_of[u], rpg.comp_of[v]
+            if sig[a] < 1 or sig[b] >= len(rpg.components[b]):
+                continue
+            useful = (spare[a] and need[b]) or (crowded[a] and room[b] and not need[a])
+            if useful and (best is None or (t.n_actions, t.cost, u, v)
+                           < (best.n_actions, best.cost, best.source, best.target)):
+                best = t
+        return best
+
+    def take_arc(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
+                 arc: Transfer) -> tuple[list[Transfer], frozenset[Site]]:
+        u, v = arc.source, arc.target
+
+        def rank(s: Site) -> float:
+            return -1.0 if s == u else 9.0 if s == v else self.rank(s)
+        ready = best_arrangement(rpg, arrangement, rank)
+        moves = rpg.moves_to(arrangement, ready)
+        return [*moves, arc], (ready - {u}) | {v}
+
+    # --- search ----------------------------------------------------------------------------
+    def child(self, parent: _Node, rpg: RearrangementPebbleGraph) -> _Node:
+        arrangement, moves = self.settle(rpg, parent.arrangement)
+        return _Node(arrangement, rpg,
+                     parent.actions + sum(t.n_actions for t in moves),
+                     parent.cost + sum(t.cost for t in moves), moves, parent,
+                     self.heuristic(arrangement), self.progress(arrangement))
+
+    def run(self) -> list[Transfer]:
+        """Transfers from the start arrangement to a goal arrangement.
+
+        Raises:
+            SearchFailure: no goal hypernode reached within the deadline / expansions.
+        """
+        cfg = self.config
+        root = _Node(self.start, None, 0, 0.0, [], None, self.heuristic(self.start))
+        tie = itertools.count()
+        heap = [(0.0, root.h, 0, 0.0, next(tie), root)]
+        seen: dict[frozenset[Site], int] = {root.arrangement: 0}
+        best_h = root.h
+        while heap:
+            if time.monotonic() > cfg.deadline:
+                raise SearchFailure(f"time budget exhausted; best arrangement still needed "
+                                    f"{best_h} actions", self.stats)
+            if self.stats.expansions >= cfg.max_expansions:
+                raise SearchFailure(f"{cfg.max_expansions} expansions without reaching the "
+                                    f"goal; best arrangement still needed {best_h} actions",
+                                    self.stats)
+            *_, node = heapq.heappop(heap)
+            if seen.get(node.arrangement, -1) < node.actions:
+                continue
+            self.stats.expansions += 1
+            for nodes in self.proposals(node.arrangement):
+                kid = self.child(node, self.rpg(nodes))
+                self.note_hypernode(kid.rpg, kid.arrangement)
+                if self.is_goal(kid.rpg, kid.arrangement):
+                    return self.finish(kid)
+                if kid.arrangement in seen and seen[kid.arrangement] <= kid.actions:
+                    continue
+                seen[kid.arrangement] = kid.actions
+                best_h = min(best_h, kid.h)
+                f = kid.actions + cfg.weight * kid.h
+                heapq.heappush(heap, (f, kid.h, -kid.progress, kid.cost, next(tie), kid))
+        raise SearchFailure(f"the hypergraph ran out of hypernodes to expand; best "
+                            f"arrangement still needed {best_h} actions", self.stats)
+
+    def finish(self, node: _Node) -> list[Transfer]:
+        rpg = node.rpg
+        assert rpg is not None
+        final = rpg.solve(node.arrangement, self.required, self.forbidden_in(rpg))
+        chain: list[_Node] = []
+        walk: _Node | None = node
+        while walk is not None:
+            chain.append(walk)
+            walk = walk.parent
+        chain.reverse()
+        moves: list[Transfer] = []
+        for n in chain:
+            moves += n.moves
+            if n.rpg is not None:
+                self.stats.hyperpath.append(self.note_hypernode(n.rpg, n.arrangement))
+        return moves + final

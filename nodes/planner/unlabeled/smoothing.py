@@ -1,0 +1,119 @@
+"""Smoothing a transfer sequence: drop redundant moves, re-plan each move for what is there.
+
+The hypergraph's transfers are feasible with *every* node of their graph occupied; when the
+sequence is replayed, fewer blocks stand around, so a move may be done more cheaply (one
+pick-and-place instead of a place-and-push) and two moves of the same block may become one.
+Three rewrites, each kept only when the whole rest of the sequence still replays and the
+plan gets shorter (fewer actions, then lower cost):
+
+* re-realise every transfer under the actual occupancy (``space.transfer(u, v, occupied)``);
+* a block's move u -> w followed (later) by its next move w -> v becomes one move u -> v,
+  done at the time of the first or of the second;
+* a block's move u -> w followed by its next move w -> u disappears.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+from nodes.planner.unlabeled.rpg import Site, Transfer
+
+
+class OccupancySpace(Protocol):
+    def conflicts(self, a: Site, b: Site) -> bool: ...
+
+    def transfer(self, u: Site, v: Site, occupied: frozenset[Site]) -> Transfer | None:
+        """The cheapest way to move a block from u to v while the sites ``occupied`` (not u)
+        hold blocks, or None."""
+        ...
+
+
+@dataclass(frozen=True)
+class SmoothingReport:
+    actions_before: int
+    actions_after: int
+    rounds: int
+
+
+def n_actions(transfers: Sequence[Transfer]) -> int:
+    return sum(t.n_actions for t in transfers)
+
+
+def _score(transfers: Sequence[Transfer]) -> tuple[int, float]:
+    return n_actions(transfers), sum(t.cost for t in transfers)
+
+
+def replay(space: OccupancySpace, start: Collection[Site], moves: Sequence[tuple[Site, Site]]
+           ) -> list[Transfer] | None:
+    """Each move (u, v) realised for the occupancy at its turn; None if one is infeasible."""
+    occ = set(start)
+    out = []
+    for u, v in moves:
+        if u == v or u not in occ or v in occ:
+            return None
+        others = frozenset(occ - {u})
+        if any(space.conflicts(v, o) for o in others):
+            return None
+        t = space.transfer(u, v, others)
+        if t is None:
+            return None
+        out.append(t)
+        occ.remove(u)
+        occ.add(v)
+    return out
+
+
+def _block_of_each(start: Collection[Site], moves: Sequence[tuple[Site, Site]]) -> list[int]:
+    """Which block (numbered by sorted start site) each move carries."""
+    at = {s: k for k, s in enumerate(sorted(start))}
+    out = []
+    for u, v in moves:
+        block = at.pop(u)
+        at[v] = block
+        out.append(block)
+    return out
+
+
+def _candidates(moves: list[tuple[Site, Site]], i: int, j: int) -> list[list[tuple[Site, Site]]]:
+    (u, _), (_, v) = moves[i], moves[j]
+    rest = moves[i + 1:j]
+    if u == v:
+        return [moves[:i] + rest + moves[j + 1:]]
+    return [moves[:i] + rest + [(u, v)] + moves[j + 1:],
+            [*moves[:i], (u, v), *rest, *moves[j + 1:]]]
+
+
+def smooth(space: OccupancySpace, start: Collection[Site], transfers: Sequence[Transfer],
+           max_rounds: int = 50) -> tuple[list[Transfer], SmoothingReport]:
+    """A shorter sequence with the same end arrangement (and the same block in each site)."""
+    before = n_actions(transfers)
+    best = list(transfers)
+    moves = [(t.source, t.target) for t in transfers]
+    again = replay(space, start, moves)
+    if again is not None and _score(again) <= _score(best):
+        best = again
+    rounds = 0
+    improved = True
+    while improved and rounds < max_rounds:
+        improved = False
+        rounds += 1
+        moves = [(t.source, t.target) for t in best]
+        blocks = _block_of_each(start, moves)
+        pairs = []
+        last: dict[int, int] = {}
+        for j, blk in enumerate(blocks):
+            if blk in last:
+                pairs.append((last[blk], j))
+            last[blk] = j
+        for i, j in pairs:
+            for cand in _candidates(moves, i, j):
+                realised = replay(space, start, cand)
+                if realised is not None and _score(realised) < _score(best):
+                    best = realised
+                    improved = True
+                    break
+            if improved:
+                break
+    return best, SmoothingReport(before, n_actions(best), rounds)
