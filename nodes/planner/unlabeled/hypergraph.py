@@ -56,12 +56,19 @@ def _never(site: Site) -> bool:
     return False
 
 
+def _nothing(arrangement: frozenset[Site]) -> int:
+    return 0
+
+
 @dataclass(frozen=True)
 class ArrangementGoal:
-    """Sites that must hold a block (in the order to fill them), sites that must be empty."""
+    """Sites that must hold a block (in the order to fill them), sites that must be empty,
+    and an estimate of the extra actions an arrangement still implies beyond one per
+    unfilled slot (e.g. pushes the geometry will force), added to the search heuristic."""
 
     required: tuple[Site, ...]
     forbidden: Callable[[Site], bool] = _never
+    extra: Callable[[frozenset[Site]], int] = _nothing
 
 
 @dataclass(frozen=True)
@@ -122,6 +129,7 @@ class HypergraphSearch:
         self._hyper: dict[tuple[frozenset[Site], tuple[int, ...]], int] = {}
         self._hard: dict[Site, bool] = {}
         self._soft: dict[Site, bool] = {}
+        self._blocking: dict[Site, float] = {}
         if config.b < 0:
             raise ValueError(f"b must be >= 0, got {config.b}")
 
@@ -139,11 +147,24 @@ class HypergraphSearch:
             self._soft[site] = site not in self.required and self.space.obstructs(site)
         return self._soft[site]
 
+    def blocking(self, site: Site) -> float:
+        """How much a block on ``site`` is in the way: the goal slots it overlaps, early
+        ones (in fill order) weighing more; a forbidden site weighs like a whole goal."""
+        if site not in self._blocking:
+            n = len(self.goal.required)
+            weight = sum(1.0 + (n - k) / n for k, g in enumerate(self.goal.required)
+                         if self.space.conflicts(site, g))
+            if self.goal.forbidden(site):
+                weight += 2.0 * max(n, 1)
+            self._blocking[site] = weight
+        return self._blocking[site]
+
     def rank(self, site: Site) -> float:
+        """Which sites an arrangement should occupy first (low) and leave first (high)."""
         if site in self.required:
             return 0.0
         if self.hard_bad(site):
-            return 3.0
+            return 3.0 + 1e-3 * self.blocking(site)
         return 2.0 if self.soft_bad(site) else 1.0
 
     def progress(self, arrangement: frozenset[Site]) -> int:
@@ -155,7 +176,7 @@ class HypergraphSearch:
     def heuristic(self, arrangement: frozenset[Site]) -> int:
         unfilled = len(self.required - arrangement)
         leaving = sum(1 for s in arrangement if self.hard_bad(s))
-        return max(unfilled, leaving)
+        return max(unfilled, leaving) + self.goal.extra(arrangement)
 
     # --- graphs ----------------------------------------------------------------------------
     def rpg(self, nodes: frozenset[Site]) -> RearrangementPebbleGraph:
@@ -186,7 +207,8 @@ class HypergraphSearch:
         unfilled = [s for s in self.goal.required if s not in arrangement]
         free = [s for s in unfilled
                 if not any(self.space.conflicts(s, a) for a in arrangement)]
-        offenders = [a for a in arrangement if self.hard_bad(a) or self.soft_bad(a)]
+        offenders = sorted((a for a in arrangement if self.hard_bad(a) or self.soft_bad(a)),
+                           key=lambda a: (-self.rank(a), a))
         movers = offenders or [a for a in sorted(arrangement) if a not in self.required]
         j_max = min(b, len(free))
         counts = [j_max, j_max - 1, 1, 0]

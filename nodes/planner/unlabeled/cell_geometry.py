@@ -1,0 +1,429 @@
+"""The work cell as a transfer space: sites are block poses, transfers are gripper actions.
+
+Footprints are the planner's (``nodes.planner.geometry``, DESIGN §6, docs/contracts.md): two
+finger pads per grasp axis, a straight push sweeping the block and two fingertips. A transfer
+of one block from site u to site v is one of
+
+* ``pick_place``: pads at u (pick) and at v (place) on some grasp axis each;
+* ``push``: u lies on a push line of v (same yaw modulo 90 degrees);
+* ``place_push``: pick-and-place onto a transient pose p on a push line of v, then push p -> v
+  (how a block gets into a slot whose neighbours leave no room for the fingers);
+* ``push_place``: push u out to a transient p, then pick-and-place p -> v (how a block whose
+  neighbours hide its faces gets out).
+
+``transfers(nodes)`` lists those feasible when every other node holds a block (the RPG's
+edges; computed in bulk with one STRtree query per batch of shapes), ``transfer(u, v,
+occupied)`` the cheapest for an actual occupancy (smoothing, retrieval). Cost of a transfer:
+``a1`` per pick-and-place, ``a2`` per push, plus the planner's distance terms.
+
+Site yaws are kept as given; a block standing on a site may be turned by a multiple of 90
+degrees from it (the footprint is the same), and ``realize`` turns a transfer into msgs_py
+actions for the block's actual yaw.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from msgs_py import PickPlace, Pose2D, Push
+from msgs_py.actions import Action
+from nodes.planner.context import PlanContext
+from nodes.planner.geometry import (
+    OVERLAP_AREA_TOL,
+    block_corners,
+    face_normals,
+    grasp_finger_corners,
+    push_corners,
+    to_polygons,
+)
+from nodes.planner.unlabeled.rpg import Site, Transfer
+
+QUARTER = 0.5 * math.pi
+#: Tolerances (m) for "u lies on a push line of v" and the shortest push.
+LINE_TOL = 1e-7
+MIN_PUSH = 1e-4
+#: Candidate positions drawn per buffer request.
+BUFFER_CANDIDATES = 400
+
+
+@dataclass(frozen=True)
+class Step:
+    """One primitive of a transfer, at site level: ``axis_from``/``axis_to`` pick the grasp
+    axis (site yaw + axis * 90 degrees) at each end of a pick-and-place."""
+
+    kind: str  # "pick_place" | "push"
+    start: Pose2D
+    end: Pose2D
+    axis_from: int = 0
+    axis_to: int = 0
+
+
+def _poses(poses: Sequence[Pose2D]) -> np.ndarray:
+    return np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)
+
+
+class CellSpace:
+    """Block poses in one scene's workspace and the transfers between them.
+
+    Args:
+        ctx: the planner's context (config, gripper geometry, workspace and table bounds).
+        fixed: poses of blocks that are obstacles, never moved (e.g. a block being retrieved).
+        push_lengths: transient push lengths tried, in block sizes, shortest first.
+        buffer_yaw: yaw of buffer sites (rad), e.g. the goal grid's.
+    """
+
+    def __init__(self, ctx: PlanContext, fixed: Sequence[Pose2D] = (),
+                 push_lengths: Sequence[float] = (0.5, 1.0), buffer_yaw: float = 0.0) -> None:
+        self.ctx = ctx
+        self.cfg = ctx.config
+        self.geom = ctx.geom
+        self.s = ctx.geom.block_size
+        self.push_lengths = tuple(float(v) * self.s for v in push_lengths)
+        self.buffer_yaw = buffer_yaw
+        self.poses: list[Pose2D] = []
+        self.footprints: list[Polygon] = []
+        self.fixed = list(fixed)
+        self.fixed_polys = list(self.footprints_of(self.fixed))
+        self.zone: Polygon | None = None
+        self.core: Polygon | None = None
+        self.zone_slots: frozenset[Site] = frozenset()
+        self._conflicts: dict[tuple[Site, Site], bool] = {}
+        self._obstructs: dict[Site, bool] = {}
+        #: clearance (m) kept around buffers: the pads reach this far past a block's face.
+        self.buffer_clearance = self.geom.approach_clearance + self.geom.finger_thickness + 0.002
+
+    # --- sites -----------------------------------------------------------------------------
+    def footprints_of(self, poses: Sequence[Pose2D]) -> np.ndarray:
+        """Block footprint polygons at ``poses``."""
+        arr = _poses(poses)
+        return to_polygons(block_corners(arr[:, 0], arr[:, 1], arr[:, 2], self.s))
+
+    def add_site(self, pose: Pose2D) -> Site:
+        self.poses.append(pose)
+        self.footprints.append(self.footprints_of([pose])[0])
+        return len(self.poses) - 1
+
+    def pose(self, site: Site) -> Pose2D:
+        return self.poses[site]
+
+    def inside(self, pose: Pose2D) -> bool:
+        corners = block_corners(pose.x, pose.y, pose.theta, self.s)
+        return bool(self.ctx.workspace.contains(corners))
+
+    def hits_fixed(self, pose: Pose2D) -> bool:
+        foot = self.footprints_of([pose])[0]
+        return any(foot.intersection(f).area > OVERLAP_AREA_TOL for f in self.fixed_polys)
+
+    def conflicts(self, a: Site, b: Site) -> bool:
+        key = (min(a, b), max(a, b))
+        if key not in self._conflicts:
+            fa, fb = self.footprints[a], self.footprints[b]
+            self._conflicts[key] = a == b or fa.intersection(fb).area > OVERLAP_AREA_TOL
+        return self._conflicts[key]
+
+    def set_zone(self, zone: Polygon | None, slots: Collection[Site] = (),
+                 core: Polygon | None = None) -> None:
+        """Where blocks are in the goal's way unless on one of ``slots`` (``zone``), and where
+        they must never be parked (``core``: the slots themselves)."""
+        self.zone = zone
+        self.core = core
+        self.zone_slots = frozenset(slots)
+        self._obstructs.clear()
+
+    def obstructs(self, site: Site) -> bool:
+        if site not in self._obstructs:
+            self._obstructs[site] = (
+                self.zone is not None and site not in self.zone_slots
+                and self.footprints[site].intersection(self.zone).area > OVERLAP_AREA_TOL)
+        return self._obstructs[site]
+
+    def overlaps(self, site: Site, region: Polygon) -> bool:
+        return self.footprints[site].intersection(region).area > OVERLAP_AREA_TOL
+
+    # --- transfers -------------------------------------------------------------------------
+    def transfers(self, nodes: Sequence[Site]) -> list[Transfer]:
+        """Every feasible transfer among ``nodes`` with all the other nodes occupied."""
+        return _Batch(self, list(nodes)).transfers()
+
+    def transfer(self, u: Site, v: Site, occupied: frozenset[Site]) -> Transfer | None:
+        """The cheapest transfer u -> v while the sites ``occupied`` hold blocks."""
+        others = sorted(set(occupied) - {u, v})
+        if any(self.conflicts(v, o) for o in others) or self.hits_fixed(self.poses[v]):
+            return None
+        found = _Batch(self, [u, v, *others]).transfers(pair=(0, 1))
+        return min(found, key=lambda t: (t.n_actions, t.cost)) if found else None
+
+    # --- buffers ---------------------------------------------------------------------------
+    def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
+                rng: np.random.Generator) -> list[Site]:
+        """Up to ``count`` new sites clear of ``nodes`` and fixed blocks, nearest to the sites
+        ``near`` first: out of the goal zone with room for fingers around them if possible,
+        else off the slots, else off the slots with little room (tiers tried in turn)."""
+        if count <= 0:
+            return []
+        w, half = self.ctx.workspace, 0.5 * self.s
+        k = BUFFER_CANDIDATES
+        xy = np.column_stack([rng.uniform(w.x_min + half, w.x_max - half, k),
+                              rng.uniform(w.y_min + half, w.y_max - half, k)])
+        corners = block_corners(xy[:, 0], xy[:, 1], np.full(k, self.buffer_yaw), self.s)
+        inside = self.ctx.workspace.contains(corners)
+        feet = to_polygons(corners)
+        order = np.arange(k)
+        if near:
+            ref = _poses([self.poses[n] for n in near])[:, :2]
+            d = np.min(np.hypot(xy[:, None, 0] - ref[None, :, 0], xy[:, None, 1] - ref[None, :, 1]),
+                       axis=1)
+            order = np.argsort(d, kind="stable")
+        blocks = [self.footprints[n] for n in nodes] + self.fixed_polys
+        tiers = [(self.zone, self.buffer_clearance), (self.core, self.buffer_clearance),
+                 (self.core, 0.003)]
+        chosen: list[int] = []
+        grown_chosen: list[Polygon] = []
+        for region, clearance in tiers:
+            if len(chosen) == count:
+                break
+            grown = shapely.buffer(feet, clearance, join_style="mitre")
+            ok = inside.copy()
+            if blocks:
+                left, _ = shapely.STRtree(blocks).query(grown, predicate="intersects")
+                ok[left] = False
+            if region is not None:
+                ok &= ~shapely.intersects(feet, region) | (
+                    shapely.area(shapely.intersection(feet, region)) <= OVERLAP_AREA_TOL)
+            for c in order:
+                if len(chosen) == count:
+                    break
+                if ok[c] and c not in chosen and not any(grown[c].intersects(g)
+                                                         for g in grown_chosen):
+                    chosen.append(int(c))
+                    grown_chosen.append(grown[c])
+        return [self.add_site(Pose2D(float(xy[c, 0]), float(xy[c, 1]), self.buffer_yaw))
+                for c in chosen]
+
+    # --- actions ---------------------------------------------------------------------------
+    def realize(self, transfer: Transfer, block: int, current: Pose2D
+                ) -> tuple[list[Action], Pose2D]:
+        """The actions of ``transfer`` for ``block`` standing at ``current`` (its actual yaw),
+        and its pose afterwards."""
+        actions: list[Action] = []
+        for step in transfer.recipe:
+            if step.kind == "push":
+                act: Action = Push.between(block, current,
+                                           Pose2D(step.end.x, step.end.y, current.theta))
+            else:
+                alpha = step.start.theta + step.axis_from * QUARTER
+                grasp = int(round(math.remainder(alpha - current.theta, math.pi) / QUARTER)) % 2
+                beta = step.end.theta + step.axis_to * QUARTER - grasp * QUARTER
+                yaw = current.theta + math.remainder(beta - current.theta, math.pi)
+                act = PickPlace(block, current, Pose2D(step.end.x, step.end.y, yaw), grasp)
+            actions.append(act)
+            current = act.to
+        return actions, current
+
+
+class _Batch:
+    """Transfers among one list of nodes: node k's footprint is obstacle k."""
+
+    def __init__(self, space: CellSpace, nodes: list[Site]) -> None:
+        self.space = space
+        self.nodes = nodes
+        self.n = len(nodes)
+        self.arr = _poses([space.poses[s] for s in nodes])
+        polys = [space.footprints[s] for s in nodes] + space.fixed_polys
+        self.polys = np.array(polys, dtype=object)
+        self.tree = shapely.STRtree(self.polys) if polys else None
+        cfg = space.cfg
+        self.per_m = cfg.a_dist if cfg.distance_cost else 0.0
+        self.per_push_m = (cfg.a_dist + cfg.a_push_len) if cfg.distance_cost else 0.0
+
+    def hits(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For shapes (..., 4, 2): which nodes each overlaps (..., n) and whether it
+        overlaps a fixed block (...)."""
+        lead = corners.shape[:-2]
+        flat = corners.reshape(-1, 4, 2)
+        node_hit = np.zeros((len(flat), self.n), dtype=bool)
+        fixed_hit = np.zeros(len(flat), dtype=bool)
+        if self.tree is not None and len(flat):
+            geoms = to_polygons(flat)
+            left, right = self.tree.query(geoms, predicate="intersects")
+            if len(left):
+                area = shapely.area(shapely.intersection(geoms[left], self.polys[right]))
+                real = area > OVERLAP_AREA_TOL
+                left, right = left[real], right[real]
+                is_node = right < self.n
+                node_hit[left[is_node], right[is_node]] = True
+                fixed_hit[left[~is_node]] = True
+        return node_hit.reshape(*lead, self.n), fixed_hit.reshape(lead)
+
+    @staticmethod
+    def clear_except(hit: np.ndarray, i: np.ndarray | int, j: np.ndarray | int) -> np.ndarray:
+        """hit (..., n) touches nothing but nodes i and j (broadcast)."""
+        total = hit.sum(-1)
+        hi = np.take_along_axis(hit, np.asarray(i)[..., None], -1)[..., 0]
+        hj = np.take_along_axis(hit, np.asarray(j)[..., None], -1)[..., 0]
+        return total - hi - (hj & (np.asarray(i) != np.asarray(j))) == 0
+
+    # --- pads at the nodes -----------------------------------------------------------------
+    def pads(self) -> tuple[np.ndarray, np.ndarray]:
+        """ok[i, j, c]: grasp axis c at node i is clear of every node but i and j, on the
+        table and off fixed blocks; and the best axis per (i, j)."""
+        geom, ctx = self.space.geom, self.space.ctx
+        x, y, th = self.arr[:, 0], self.arr[:, 1], self.arr[:, 2]
+        pads = grasp_finger_corners(geom, x[:, None], y[:, None], th[:, None], np.arange(2))
+        hit, fixed = self.hits(pads)  # (n, 2, 2, n), (n, 2, 2)
+        hit, fixed = hit.any(axis=2), fixed.any(axis=2)  # per node and axis
+        base = ctx.table.contains(pads).all(-1) & ~fixed  # (n, 2)
+        ii = np.arange(self.n)[:, None, None]
+        jj = np.arange(self.n)[None, :, None]
+        ok = base[:, None, :] & self.clear_except(hit[:, None, :, :], ii, jj)  # (n, n, 2)
+        return ok, np.argmax(ok, axis=-1)
+
+    def transfers(self, pair: tuple[int, int] | None = None) -> list[Transfer]:
+        if self.n < 2:
+            return []
+        pad_ok, pad_axis = self.pads()
+        self.pad_axis = pad_axis
+        can = pad_ok.any(-1)  # can[i, j]: pads fit at i while the block goes i <-> j
+        np.fill_diagonal(can, False)
+        out: list[Transfer] = []
+        src = range(self.n) if pair is None else [pair[0]]
+        dst = range(self.n) if pair is None else [pair[1]]
+        for i in src:
+            for j in dst:
+                if i != j and can[i, j] and can[j, i]:
+                    out.append(self._pick_place(i, j, int(pad_axis[i, j]), int(pad_axis[j, i])))
+        need_in = [j for j in dst if not all(can[j, i] for i in src if i != j)]
+        need_out = [i for i in src if not all(can[i, j] for j in dst if j != i)]
+        out += self._direct_pushes(src, dst)
+        if need_in:
+            out += self._composites(need_in, list(src), -1.0, can)
+        if need_out:
+            out += self._composites(need_out, list(dst), 1.0, can)
+        return out
+
+    # --- transfer kinds --------------------------------------------------------------------
+    def _pose(self, k: int) -> Pose2D:
+        return self.space.poses[self.nodes[k]]
+
+    def _pick_place(self, i: int, j: int, ci: int, cj: int) -> Transfer:
+        a, b = self._pose(i), self._pose(j)
+        cost = self.space.cfg.a1 + self.per_m * a.distance_to(b)
+        step = Step("pick_place", a, b, ci, cj)
+        return Transfer(self.nodes[i], self.nodes[j], 1, cost, (step,))
+
+    def _direct_pushes(self, src: Sequence[int], dst: Sequence[int]) -> list[Transfer]:
+        cfg = self.space.cfg
+        cand = []
+        for j in dst:
+            normals = face_normals(self.arr[j, 2])
+            for i in src:
+                if i == j or abs(math.remainder(self.arr[i, 2] - self.arr[j, 2], QUARTER)) > 1e-9:
+                    continue
+                v = self.arr[j, :2] - self.arr[i, :2]
+                along = normals @ v
+                cross = normals[:, 0] * v[1] - normals[:, 1] * v[0]
+                k = int(np.argmax(along))
+                if abs(cross[k]) < LINE_TOL and MIN_PUSH < along[k] <= cfg.push_max_distance:
+                    cand.append((i, j, normals[k], float(along[k])))
+        if not cand:
+            return []
+        i_arr = np.array([c[0] for c in cand])
+        d = np.array([c[2] for c in cand])
+        dist = np.array([c[3] for c in cand])
+        sweep = push_corners(self.space.geom, self.arr[i_arr, 0], self.arr[i_arr, 1],
+                             d[:, 0], d[:, 1], dist)
+        ok = self._sweep_ok(sweep)
+        hit, _ = self.hits(sweep)
+        hit = hit.any(axis=1)
+        out = []
+        for k, (i, j, _, length) in enumerate(cand):
+            if ok[k] and self.clear_except(hit[k], i, j):
+                step = Step("push", self._pose(i), self._pose(j))
+                cost = cfg.a2 + self.per_push_m * length
+                out.append(Transfer(self.nodes[i], self.nodes[j], 1, cost, (step,)))
+        return out
+
+    def _sweep_ok(self, sweep: np.ndarray) -> np.ndarray:
+        """Push sweeps (K, 3, 4, 2): block inside the workspace, fingertips on the table,
+        nothing fixed hit."""
+        ctx = self.space.ctx
+        _, fixed = self.hits(sweep)
+        return (ctx.workspace.contains(sweep[:, 0]) & ctx.table.contains(sweep[:, 1:]).all(-1)
+                & ~fixed.any(-1))
+
+    def _stagings(self, anchors: Sequence[int], sign: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Transient poses on the push lines of ``anchors``: p = anchor + sign * n * L.
+
+        Returns (anchor index (K,), p (K, 3), unit push direction n (K, 2), L (K,)): the push
+        runs along n from p *into* the anchor (sign -1) or from the anchor *out* to p (+1).
+        """
+        rows_a, rows_p, rows_d, rows_l = [], [], [], []
+        for a in anchors:
+            x, y, th = self.arr[a]
+            for n in face_normals(th):
+                for length in self.space.push_lengths:
+                    rows_a.append(a)
+                    rows_p.append((x + sign * n[0] * length, y + sign * n[1] * length, th))
+                    rows_d.append(n)
+                    rows_l.append(length)
+        return (np.array(rows_a, dtype=int), np.array(rows_p), np.array(rows_d),
+                np.array(rows_l))
+
+    @staticmethod
+    def _clear_matrix(hit: np.ndarray, anchor: np.ndarray) -> np.ndarray:
+        """[k, i]: shape k (hits ``hit`` (K, n)) touches no node but i and anchor[k]."""
+        k = np.arange(len(anchor))
+        total = hit.sum(-1)[:, None]
+        at_anchor = hit[k, anchor][:, None]
+        other = np.arange(hit.shape[-1])[None, :] != anchor[:, None]
+        return total - hit - (at_anchor & other) == 0
+
+    def _composites(self, anchors: list[int], others: list[int], sign: float, can: np.ndarray
+                    ) -> list[Transfer]:
+        """Two-action transfers through a transient pose on a push line of each anchor:
+        ``place_push`` into the anchor (sign -1: others are sources) or ``push_place`` out
+        of it (sign +1: others are targets)."""
+        cfg, geom, ctx = self.space.cfg, self.space.geom, self.space.ctx
+        anchor, p, d, length = self._stagings(anchors, sign)
+        origin = p if sign < 0 else self.arr[anchor]
+        sweep = push_corners(geom, origin[:, 0], origin[:, 1], d[:, 0], d[:, 1], length)
+        sweep_hit, sweep_fixed = self.hits(sweep)
+        sweep_ok = (ctx.workspace.contains(sweep[:, 0]) & ctx.table.contains(sweep[:, 1:]).all(-1)
+                    & ~sweep_fixed.any(-1))
+        sweep_clear = self._clear_matrix(sweep_hit.any(axis=1), anchor)
+        pads = grasp_finger_corners(geom, p[:, 0, None], p[:, 1, None], p[:, 2, None],
+                                    np.arange(2))
+        pad_hit, pad_fixed = self.hits(pads)
+        pad_ok = ctx.table.contains(pads).all(-1) & ~pad_fixed.any(axis=2)  # (K, 2)
+        pad_hit = pad_hit.any(axis=2)  # (K, 2, n)
+        stage = np.stack([pad_ok[:, c, None] & self._clear_matrix(pad_hit[:, c], anchor)
+                          for c in range(2)], axis=-1)  # (K, n, 2)
+        wanted = np.zeros(self.n, dtype=bool)
+        wanted[others] = True
+        feasible = (sweep_ok[:, None] & sweep_clear & stage.any(-1) & can[:, anchor].T
+                    & wanted[None, :] & (np.arange(self.n)[None, :] != anchor[:, None]))
+        best: dict[tuple[int, int], Transfer] = {}
+        for k, other in zip(*np.nonzero(feasible), strict=True):
+            a = int(anchor[k])
+            i, j = (int(other), a) if sign < 0 else (a, int(other))
+            start, mid, end = self._pose(i), Pose2D(*p[k]), self._pose(j)
+            carried = start.distance_to(mid) if sign < 0 else mid.distance_to(end)
+            cost = cfg.a1 + cfg.a2 + self.per_m * carried + self.per_push_m * float(length[k])
+            if (i, j) in best and best[(i, j)].cost <= cost:
+                continue
+            axis_mid = int(np.argmax(stage[k, other]))
+            if sign < 0:
+                steps = (Step("pick_place", start, mid, int(self.pad_axis[i, j]), axis_mid),
+                         Step("push", mid, end))
+            else:
+                steps = (Step("push", start, mid),
+                         Step("pick_place", mid, end, axis_mid, int(self.pad_axis[j, i])))
+            best[(i, j)] = Transfer(self.nodes[i], self.nodes[j], 2, cost, steps)
+        return list(best.values())

@@ -1,0 +1,171 @@
+"""Unlabeled goals: a scene whose slots any block may fill in, a validated plan out.
+
+The blocks' poses and the goal slots become sites of a ``CellSpace``; the slots are ordered
+by the planner's assembly order (which slot can still be entered once its neighbours are
+there); the hypergraph search connects the start arrangement to one that fills every slot;
+smoothing shortens the transfer sequence; each transfer becomes pick-and-place / push actions
+for the block that stands on its source; the replay validator checks the plan.
+Never raises for a scene it cannot solve: the outcome names the reason.
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+import shapely
+
+from msgs_py import MessageError, Plan, Pose2D, Scene
+from msgs_py.actions import Action
+from nodes.planner.assembly import Assembly
+from nodes.planner.config import PlannerConfig
+from nodes.planner.context import PlanContext
+from nodes.planner.planner import PlanOutcome, plan_cost
+from nodes.planner.unlabeled.cell_geometry import CellSpace
+from nodes.planner.unlabeled.config import UnlabeledConfig
+from nodes.planner.unlabeled.goal_check import on_slot, unfilled_slots
+from nodes.planner.unlabeled.hypergraph import (
+    ArrangementGoal,
+    HypergraphSearch,
+    SearchConfig,
+    SearchFailure,
+)
+from nodes.planner.unlabeled.rpg import Site, Transfer
+from nodes.planner.unlabeled.smoothing import n_actions, smooth
+from nodes.planner.validator import validate_plan
+
+PLANNER_NAME = "pebble_graphs"
+
+
+def check_unlabeled(scene: Scene) -> None:
+    """Refuse what this planner does not handle, naming the field."""
+    if scene.goal is None:
+        raise MessageError("goal", None, "the scene has no goal to plan for")
+    if scene.goal.labeled:
+        raise MessageError("labeled", True, "this planner is for unlabeled goals")
+    if scene.goal.yaw_exact:
+        raise MessageError("yaw_exact", True, "unlabeled goals are met with yaw modulo 90 "
+                           "degrees; yaw_exact is not supported for them")
+
+
+def unlabeled_lower_bound(scene: Scene, config: PlannerConfig) -> int:
+    """Actions at least needed: slots that no block stands on yet (each needs one)."""
+    return len(unfilled_slots(scene, (b.pose for b in scene.blocks), config.goal_tolerance_xy,
+                              config.goal_tolerance_yaw))
+
+
+def make_space(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
+               fixed: Sequence[Pose2D] = (), buffer_yaw: float = 0.0
+               ) -> tuple[PlanContext, CellSpace]:
+    ctx = PlanContext.for_scene(scene, config)
+    return ctx, CellSpace(ctx, fixed, ucfg.push_lengths, buffer_yaw)
+
+
+def goal_zone(space: CellSpace, poses: Iterable[Pose2D]
+              ) -> tuple[shapely.Geometry, shapely.Geometry]:
+    """The slots' footprints (core) and the core grown by the fingers' reach (zone): blocks
+    parked in the zone are in the way."""
+    core = shapely.union_all(space.footprints_of(list(poses)))
+    return shapely.buffer(core, space.buffer_clearance, join_style="mitre"), core
+
+
+def realize(space: CellSpace, block_at: Mapping[Site, int], poses: Mapping[int, Pose2D],
+            transfers: Iterable[Transfer]) -> list[Action]:
+    """The actions of ``transfers``: each moves the block standing on its source site."""
+    at, pose = dict(block_at), dict(poses)
+    actions: list[Action] = []
+    for t in transfers:
+        block = at.pop(t.source)
+        acts, pose[block] = space.realize(t, block, pose[block])
+        at[t.target] = block
+        actions += acts
+    return actions
+
+
+def finish_plan(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
+                actions: list[Action], planner: str, t0: float, bound: int,
+                metrics: dict[str, float], plan_id: str | None) -> PlanOutcome:
+    """Wrap, validate and report (shared by the pebble-graph planners)."""
+    elapsed = time.monotonic() - t0
+    params = config.to_params(scene.block_size)
+    params.update(ucfg.to_params())
+    plan = Plan(actions=tuple(actions), planner=planner, params=params, seed=config.seed,
+                planning_time_s=elapsed, cost=plan_cost(actions, config),
+                plan_id=plan_id or uuid.uuid4().hex[:12], scene=scene)
+    report = validate_plan(plan)
+    if not report.ok:
+        return PlanOutcome(None, elapsed, bound, "internal error: the plan failed replay "
+                           f"validation ({'; '.join(report.errors[:3])})", None, metrics)
+    metrics["actions"] = float(len(actions))
+    metrics["pushes"] = float(sum(a.type == "push" for a in actions))
+    return PlanOutcome(plan, elapsed, bound, metrics=metrics)
+
+
+def slot_sites(space: CellSpace, scene: Scene, block_sites: Mapping[int, Site],
+               config: PlannerConfig) -> list[Site]:
+    """A site per goal slot; a block already on a slot lends its own site (it may stay)."""
+    out, used = [], set()
+    for slot in scene.goal.slot_poses(scene.block_size):
+        there = next((s for s in block_sites.values() if s not in used and on_slot(
+            space.pose(s), slot, config.goal_tolerance_xy, config.goal_tolerance_yaw, False)),
+            None)
+        if there is not None:
+            used.add(there)
+            out.append(there)
+        else:
+            out.append(space.add_site(slot))
+    return out
+
+
+def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
+                   plan_id: str | None = None) -> PlanOutcome:
+    """Plan ``scene`` (start blocks + unlabeled goal) with rearrangement pebble graphs.
+
+    Raises:
+        MessageError: no goal, a labeled goal, or ``yaw_exact``.
+        ValueError: a gripper/block combination the geometry cannot use.
+    """
+    check_unlabeled(scene)
+    t0 = time.monotonic()
+    bound = unlabeled_lower_bound(scene, config)
+    slots = scene.goal.slot_poses(scene.block_size)
+    metrics: dict[str, float] = {"lower_bound": float(bound), "n_blocks": float(len(scene.blocks)),
+                                 "b": float(ucfg.b)}
+    ctx, space = make_space(scene, config, ucfg, buffer_yaw=slots[0].theta if slots else 0.0)
+    block_sites = {b.id: space.add_site(b.pose) for b in scene.blocks}
+    sites = slot_sites(space, scene, block_sites, config)
+    assembly = Assembly(ctx, dict(enumerate(slots)))
+    walled = assembly.stuck(0)
+    if walled:
+        return PlanOutcome(None, time.monotonic() - t0, bound, f"the goal layout walls in slots "
+                           f"{walled}: no order lets blocks be set down or pushed into them",
+                           None, metrics)
+    required = tuple(sites[k] for k in assembly.order())
+    bit = {site: 1 << k for k, site in enumerate(sites)}
+
+    def pushes_ahead(arrangement: frozenset[Site]) -> int:
+        return assembly.future_pushes(sum(bit[s] for s in arrangement if s in bit))
+
+    zone, core = goal_zone(space, slots)
+    space.set_zone(zone, sites, core)
+    search = HypergraphSearch(
+        space, block_sites.values(), ArrangementGoal(required, extra=pushes_ahead),
+        SearchConfig(b=ucfg.b, weight=ucfg.weight, deadline=t0 + config.budget_s,
+                     max_expansions=ucfg.max_expansions, max_proposals=ucfg.max_proposals),
+        np.random.default_rng(config.seed))
+    try:
+        transfers = search.run()
+    except SearchFailure as failure:
+        metrics.update(failure.stats.as_metrics())
+        return PlanOutcome(None, time.monotonic() - t0, bound, f"no plan: {failure.reason}",
+                           None, metrics)
+    metrics.update(search.stats.as_metrics())
+    metrics["actions_raw"] = float(n_actions(transfers))
+    if ucfg.smoothing:
+        transfers, _ = smooth(space, block_sites.values(), transfers)
+    block_at = {site: block for block, site in block_sites.items()}
+    poses = {b.id: b.pose for b in scene.blocks}
+    actions = realize(space, block_at, poses, transfers)
+    return finish_plan(scene, config, ucfg, actions, PLANNER_NAME, t0, bound, metrics, plan_id)
