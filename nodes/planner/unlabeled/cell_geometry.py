@@ -218,7 +218,7 @@ class CellSpace:
                                            Pose2D(step.end.x, step.end.y, current.theta))
             else:
                 alpha = step.start.theta + step.axis_from * QUARTER
-                grasp = int(round(math.remainder(alpha - current.theta, math.pi) / QUARTER)) % 2
+                grasp = round(math.remainder(alpha - current.theta, math.pi) / QUARTER) % 2
                 beta = step.end.theta + step.axis_to * QUARTER - grasp * QUARTER
                 yaw = current.theta + math.remainder(beta - current.theta, math.pi)
                 act = PickPlace(block, current, Pose2D(step.end.x, step.end.y, yaw), grasp)
