@@ -206,6 +206,80 @@ class CellSpace:
         return [self.add_site(Pose2D(float(xy[c, 0]), float(xy[c, 1]), self.buffer_yaw))
                 for c in chosen]
 
+    # --- one block's ways from u to v, and the room each needs ----------------------------
+    def set_fixed(self, poses: Sequence[Pose2D]) -> None:
+        """Blocks that are obstacles from now on (e.g. the block being retrieved)."""
+        self.fixed = list(poses)
+        self.fixed_polys = list(self.footprints_of(self.fixed)) if self.fixed else []
+
+    def options(self, u: Site, v: Site) -> list[tuple[Transfer, Polygon]]:
+        """Every way to move a block from u to v that stays in the workspace and on the
+        table and clear of fixed blocks, *ignoring the other blocks*, with the area each
+        needs free of them (fingers, swept area, the block wherever it is set down); fewest
+        actions, then cheapest, first."""
+        cfg, geom = self.cfg, self.geom
+        a, b = self.poses[u], self.poses[v]
+        out: list[tuple[Transfer, Polygon]] = []
+        pads_a = grasp_finger_corners(geom, a.x, a.y, a.theta, np.arange(2))  # (2, 2, 4, 2)
+        per_m = cfg.a_dist if cfg.distance_cost else 0.0
+        per_push = (cfg.a_dist + cfg.a_push_len) if cfg.distance_cost else 0.0
+
+        def usable(corners: np.ndarray, region: str = "table") -> bool:
+            bounds = self.ctx.table if region == "table" else self.ctx.workspace
+            flat = corners.reshape(-1, 4, 2)
+            if not bounds.contains(flat).all():
+                return False
+            polys = to_polygons(flat)
+            return not any(p.intersection(f).area > OVERLAP_AREA_TOL
+                           for p in polys for f in self.fixed_polys)
+
+        def room(*parts: np.ndarray) -> Polygon:
+            return shapely.union_all(to_polygons(np.concatenate(
+                [p.reshape(-1, 4, 2) for p in parts])))
+
+        def pads_at(p: Pose2D) -> np.ndarray:
+            return grasp_finger_corners(geom, p.x, p.y, p.theta, np.arange(2))
+
+        foot_b = block_corners(b.x, b.y, b.theta, self.s)[None]
+        pads_b = pads_at(b)
+        for ca in range(2):
+            for cb in range(2):
+                if usable(pads_a[ca]) and usable(pads_b[cb]) and usable(foot_b, "workspace"):
+                    t = Transfer(u, v, 1, cfg.a1 + per_m * a.distance_to(b),
+                                 (Step("pick_place", a, b, ca, cb),))
+                    out.append((t, room(pads_a[ca], pads_b[cb], foot_b)))
+        for sign, anchor in ((-1.0, b), (1.0, a)):
+            for n in face_normals(anchor.theta):
+                for length in self.push_lengths:
+                    p = Pose2D(float(anchor.x + sign * n[0] * length),
+                               float(anchor.y + sign * n[1] * length), anchor.theta)
+                    start = p if sign < 0 else a
+                    sweep = push_corners(geom, start.x, start.y, n[0], n[1], length)
+                    if not (usable(sweep[0], "workspace") and usable(sweep[1:])):
+                        continue
+                    pads_p = pads_at(p)
+                    for cp in range(2):
+                        for c_other in range(2):
+                            if sign < 0:  # place on p, push into b
+                                if not (usable(pads_a[c_other]) and usable(pads_p[cp])):
+                                    continue
+                                steps = (Step("pick_place", a, p, c_other, cp),
+                                         Step("push", p, b))
+                                need = room(pads_a[c_other], pads_p[cp], sweep)
+                                carried = a.distance_to(p)
+                            else:  # push a out to p, then place on b
+                                if not (usable(pads_p[cp]) and usable(pads_b[c_other])
+                                        and usable(foot_b, "workspace")):
+                                    continue
+                                steps = (Step("push", a, p),
+                                         Step("pick_place", p, b, cp, c_other))
+                                need = room(sweep, pads_p[cp], pads_b[c_other], foot_b)
+                                carried = p.distance_to(b)
+                            cost = cfg.a1 + cfg.a2 + per_m * carried + per_push * length
+                            out.append((Transfer(u, v, 2, cost, steps), need))
+        out.sort(key=lambda o: (o[0].n_actions, o[0].cost))
+        return out
+
     # --- actions ---------------------------------------------------------------------------
     def realize(self, transfer: Transfer, block: int, current: Pose2D
                 ) -> tuple[list[Action], Pose2D]:
@@ -413,7 +487,7 @@ class _Batch:
         for k, other in zip(*np.nonzero(feasible), strict=True):
             a = int(anchor[k])
             i, j = (int(other), a) if sign < 0 else (a, int(other))
-            start, mid, end = self._pose(i), Pose2D(*p[k]), self._pose(j)
+            start, mid, end = self._pose(i), Pose2D(*map(float, p[k])), self._pose(j)
             carried = start.distance_to(mid) if sign < 0 else mid.distance_to(end)
             cost = cfg.a1 + cfg.a2 + self.per_m * carried + self.per_push_m * float(length[k])
             if (i, j) in best and best[(i, j)].cost <= cost:

@@ -69,6 +69,14 @@ class ArrangementGoal:
     required: tuple[Site, ...]
     forbidden: Callable[[Site], bool] = _never
     extra: Callable[[frozenset[Site]], int] = _nothing
+    #: The unfilled required sites in the order to fill them from an arrangement (default:
+    #: ``required``'s order); lets the geometry re-plan the order as slots get filled.
+    order: Callable[[frozenset[Site]], Sequence[Site]] | None = None
+
+    def unfilled(self, arrangement: frozenset[Site]) -> list[Site]:
+        if self.order is not None:
+            return [s for s in self.order(arrangement) if s not in arrangement]
+        return [s for s in self.required if s not in arrangement]
 
 
 @dataclass(frozen=True)
@@ -204,7 +212,7 @@ class HypergraphSearch:
     def proposals(self, arrangement: frozenset[Site]) -> list[frozenset[Site]]:
         """New node sets: the arrangement plus b new sites (goal slots and/or buffers)."""
         b = self.config.b
-        unfilled = [s for s in self.goal.required if s not in arrangement]
+        unfilled = self.goal.unfilled(arrangement)
         free = [s for s in unfilled
                 if not any(self.space.conflicts(s, a) for a in arrangement)]
         offenders = sorted((a for a in arrangement if self.hard_bad(a) or self.soft_bad(a)),
@@ -263,15 +271,17 @@ class HypergraphSearch:
             spare.append(sig[k] > req)
             crowded.append(sig[k] > good)
             room.append(sig[k] < good)
-        best = None
+        best, best_key = None, None
         for (u, v), t in rpg.arcs.items():
             a, b = rpg.comp_of[u], rpg.comp_of[v]
             if sig[a] < 1 or sig[b] >= len(rpg.components[b]):
                 continue
-            useful = (spare[a] and need[b]) or (crowded[a] and room[b] and not need[a])
-            if useful and (best is None or (t.n_actions, t.cost, u, v)
-                           < (best.n_actions, best.cost, best.source, best.target)):
-                best = t
+            if not ((spare[a] and need[b]) or (crowded[a] and room[b] and not need[a])):
+                continue
+            # Take a block that must leave its site anyway, not one a slot would then miss.
+            key = (t.n_actions, -self.rank(u), t.cost, u, v)
+            if best_key is None or key < best_key:
+                best, best_key = t, key
         return best
 
     def take_arc(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],

@@ -145,13 +145,19 @@ def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
     required = tuple(sites[k] for k in assembly.order())
     bit = {site: 1 << k for k, site in enumerate(sites)}
 
+    def filled(arrangement: frozenset[Site]) -> int:
+        return sum(bit[s] for s in arrangement if s in bit)
+
     def pushes_ahead(arrangement: frozenset[Site]) -> int:
-        return assembly.future_pushes(sum(bit[s] for s in arrangement if s in bit))
+        return assembly.future_pushes(filled(arrangement))
+
+    def order(arrangement: frozenset[Site]) -> list[Site]:
+        return [sites[k] for k in assembly.order(filled(arrangement))]
 
     zone, core = goal_zone(space, slots)
     space.set_zone(zone, sites, core)
     search = HypergraphSearch(
-        space, block_sites.values(), ArrangementGoal(required, extra=pushes_ahead),
+        space, block_sites.values(), ArrangementGoal(required, extra=pushes_ahead, order=order),
         SearchConfig(b=ucfg.b, weight=ucfg.weight, deadline=t0 + config.budget_s,
                      max_expansions=ucfg.max_expansions, max_proposals=ucfg.max_proposals),
         np.random.default_rng(config.seed))

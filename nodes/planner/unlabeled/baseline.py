@@ -1,0 +1,70 @@
+"""Baseline for unlabeled goals: assign blocks to slots, then plan the labeled problem.
+
+The assignment is a min-cost matching (``scipy.optimize.linear_sum_assignment``, the
+Hungarian method) on the distance each block would travel to each slot; with more blocks
+than slots the surplus blocks stay free. The labeled pIRS planner then plans the resulting
+labeled goal, and the plan is checked again against the original unlabeled goal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from msgs_py import Goal, GoalSlot, Scene
+from nodes.planner.config import PlannerConfig
+from nodes.planner.planner import PlanOutcome, plan_scene
+from nodes.planner.unlabeled.config import UnlabeledConfig
+from nodes.planner.unlabeled.planner import check_unlabeled, unlabeled_lower_bound
+from nodes.planner.validator import validate_plan
+
+PLANNER_NAME = "assignment_pirs"
+
+
+def assign_slots(scene: Scene) -> dict[int, int]:
+    """Slot index -> block id minimising the total distance blocks travel."""
+    slots = scene.goal.slot_poses(scene.block_size)
+    blocks = list(scene.blocks)
+    cost = np.array([[b.pose.distance_to(s) for b in blocks] for s in slots])
+    rows, cols = linear_sum_assignment(cost)
+    return {int(r): blocks[int(c)].id for r, c in zip(rows, cols, strict=True)}
+
+
+def labeled_goal(scene: Scene, assignment: dict[int, int]) -> Goal:
+    slots = scene.goal.slot_poses(scene.block_size)
+    return Goal(slots=tuple(GoalSlot(slots[k].x, slots[k].y, slots[k].theta, block)
+                            for k, block in sorted(assignment.items())), labeled=True)
+
+
+def plan_assignment(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
+                    plan_id: str | None = None) -> PlanOutcome:
+    """Min-cost assignment, then pIRS; the outcome's plan carries the unlabeled scene.
+
+    Raises:
+        MessageError: no goal, a labeled goal, or ``yaw_exact``.
+    """
+    check_unlabeled(scene)
+    t0 = time.monotonic()
+    bound = unlabeled_lower_bound(scene, config)
+    assignment = assign_slots(scene)
+    labeled = scene.with_goal(labeled_goal(scene, assignment))
+    remaining = max(config.budget_s - (time.monotonic() - t0), 1e-3)
+    outcome = plan_scene(labeled, dataclasses.replace(config, budget_s=remaining), plan_id)
+    elapsed = time.monotonic() - t0
+    metrics = dict(outcome.metrics)
+    metrics["lower_bound"] = float(bound)
+    if outcome.plan is None:
+        return PlanOutcome(None, elapsed, bound, outcome.error, outcome.failed_block, metrics)
+    params = dict(outcome.plan.params)
+    params.update(ucfg.to_params())
+    plan = dataclasses.replace(outcome.plan, planner=PLANNER_NAME, params=params, scene=scene,
+                               planning_time_s=elapsed)
+    report = validate_plan(plan)
+    if not report.ok:
+        return PlanOutcome(None, elapsed, bound, "internal error: the assigned plan fails the "
+                           f"unlabeled goal ({'; '.join(report.errors[:3])})", None, metrics)
+    return PlanOutcome(plan, elapsed, bound, metrics=metrics)
+

@@ -1,0 +1,66 @@
+"""One entry point for every goal kind: labeled, unlabeled, retrieval (labeled, some free).
+
+The planner node and ``densepack-plan`` call ``plan_goal``; which planner runs is the goal's
+kind and the ``unlabeled.method`` / ``unlabeled.retrieval_method`` parameters (an
+apriltag_ros-style name -> function map).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+
+from msgs_py import MessageError, Scene
+from nodes.planner.config import PlannerConfig
+from nodes.planner.planner import PlanOutcome, plan_scene
+from nodes.planner.unlabeled.baseline import plan_assignment
+from nodes.planner.unlabeled.config import UnlabeledConfig
+from nodes.planner.unlabeled.planner import plan_unlabeled
+from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
+
+Planner = Callable[[Scene, PlannerConfig, UnlabeledConfig, "str | None"], PlanOutcome]
+
+UNLABELED: dict[str, Planner] = {"pebble_graphs": plan_unlabeled, "assignment": plan_assignment}
+
+
+def goal_kind(scene: Scene) -> str:
+    """'unlabeled', 'retrieval' (labeled, some blocks left free) or 'labeled'."""
+    if scene.goal is None:
+        raise MessageError("goal", None, "the scene has no goal to plan for")
+    if not scene.goal.labeled:
+        return "unlabeled"
+    return "retrieval" if is_retrieval(scene) else "labeled"
+
+
+def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None = None,
+              plan_id: str | None = None) -> PlanOutcome:
+    """Plan ``scene`` whatever its goal kind.
+
+    A retrieval the pebble-graph method cannot do (or one asking for ``yaw_exact``) falls
+    back to pIRS within what is left of the time budget; ``metrics['fallback']`` says so.
+
+    Raises:
+        MessageError: no goal, or a goal the chosen planner refuses (named field).
+        ValueError: a gripper/block combination the geometry cannot use.
+    """
+    ucfg = ucfg or UnlabeledConfig()
+    kind = goal_kind(scene)
+    if kind == "unlabeled":
+        return UNLABELED[ucfg.method](scene, config, ucfg, plan_id)
+    if kind == "labeled":
+        return plan_scene(scene, config, plan_id)
+    if ucfg.retrieval_method == "pirs" or scene.goal.yaw_exact:
+        return plan_scene(scene, config, plan_id)
+    t0 = time.monotonic()
+    outcome = plan_retrieval(scene, config, ucfg, plan_id)
+    if outcome.ok:
+        return outcome
+    remaining = config.budget_s - (time.monotonic() - t0)
+    if remaining <= 0.0:
+        return outcome
+    fallback = plan_scene(scene, dataclasses.replace(config, budget_s=remaining), plan_id)
+    metrics = {**fallback.metrics, "fallback": 1.0}
+    error = fallback.error and f"{fallback.error} (pebble-graph retrieval: {outcome.error})"
+    return dataclasses.replace(fallback, metrics=metrics, error=error,
+                               planning_time_s=time.monotonic() - t0)
