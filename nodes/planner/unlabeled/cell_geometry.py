@@ -95,6 +95,7 @@ class CellSpace:
         self.zone_slots: frozenset[Site] = frozenset()
         self._conflicts: dict[tuple[Site, Site], bool] = {}
         self._obstructs: dict[Site, bool] = {}
+        self._transfer_cache: dict[tuple[Site, Site, tuple[Site, ...]], Transfer | None] = {}
         #: clearance (m) kept around buffers: the pads reach this far past a block's face.
         self.buffer_clearance = self.geom.approach_clearance + self.geom.finger_thickness + 0.002
 
@@ -151,13 +152,38 @@ class CellSpace:
         """Every feasible transfer among ``nodes`` with all the other nodes occupied."""
         return _Batch(self, list(nodes)).transfers()
 
+    @property
+    def reach(self) -> float:
+        """How far (m, centre to centre) a block may stand from u or v and still matter to a
+        transfer u -> v: the longest transient push, the fingers behind it, a block's
+        half-diagonal, with margin."""
+        g = self.geom
+        return (max(self.push_lengths) + 0.5 * self.s + g.push_contact_depth + g.finger_width
+                + g.finger_offset + g.finger_thickness + math.sqrt(0.5) * self.s + 0.01)
+
+    def nearby(self, sites: Collection[Site], anchors: Sequence[Site]) -> list[Site]:
+        """The ``sites`` within ``reach`` of some anchor."""
+        if not sites:
+            return []
+        cand = sorted(sites)
+        xy = _poses([self.poses[s] for s in cand])[:, :2]
+        ref = _poses([self.poses[a] for a in anchors])[:, :2]
+        d = np.hypot(xy[:, None, 0] - ref[None, :, 0], xy[:, None, 1] - ref[None, :, 1])
+        return [cand[k] for k in np.flatnonzero(d.min(axis=1) <= self.reach)]
+
     def transfer(self, u: Site, v: Site, occupied: frozenset[Site]) -> Transfer | None:
-        """The cheapest transfer u -> v while the sites ``occupied`` hold blocks."""
-        others = sorted(set(occupied) - {u, v})
-        if any(self.conflicts(v, o) for o in others) or self.hits_fixed(self.poses[v]):
-            return None
-        found = _Batch(self, [u, v, *others]).transfers(pair=(0, 1))
-        return min(found, key=lambda t: (t.n_actions, t.cost)) if found else None
+        """The cheapest transfer u -> v while the sites ``occupied`` hold blocks (only the
+        blocks within reach matter, and the answer is cached on them)."""
+        others = tuple(self.nearby(set(occupied) - {u, v}, (u, v)))
+        key = (u, v, others)
+        if key not in self._transfer_cache:
+            if any(self.conflicts(v, o) for o in others) or self.hits_fixed(self.poses[v]):
+                best = None
+            else:
+                found = _Batch(self, [u, v, *others]).transfers(pair=(0, 1))
+                best = min(found, key=lambda t: (t.n_actions, t.cost)) if found else None
+            self._transfer_cache[key] = best
+        return self._transfer_cache[key]
 
     # --- buffers ---------------------------------------------------------------------------
     def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
@@ -211,6 +237,7 @@ class CellSpace:
         """Blocks that are obstacles from now on (e.g. the block being retrieved)."""
         self.fixed = list(poses)
         self.fixed_polys = list(self.footprints_of(self.fixed)) if self.fixed else []
+        self._transfer_cache.clear()
 
     def options(self, u: Site, v: Site) -> list[tuple[Transfer, Polygon]]:
         """Every way to move a block from u to v that stays in the workspace and on the

@@ -209,8 +209,16 @@ class HypergraphSearch:
         return rpg.satisfiable(rpg.signature(arrangement), self.required, self.forbidden_in(rpg))
 
     # --- proposals -------------------------------------------------------------------------
-    def proposals(self, arrangement: frozenset[Site]) -> list[frozenset[Site]]:
-        """New node sets: the arrangement plus b new sites (goal slots and/or buffers)."""
+    def proposals(self, arrangement: frozenset[Site]) -> list[tuple[frozenset[Site], bool]]:
+        """New node sets, the arrangement plus up to b new sites, each with whether blocks
+        should be evicted into its new non-goal sites.
+
+        *Fill* graphs add the next free goal slots (in fill order; all b, fewer, one, and a
+        random choice) and buffers for room to manoeuvre that blocks may pass through but
+        not stay on. *Evict* graphs add one or b buffers that the blocks most in the goal's
+        way move to (moving a block aside costs an action it may not need later, so
+        evictions are their own, small, proposals).
+        """
         b = self.config.b
         unfilled = self.goal.unfilled(arrangement)
         free = [s for s in unfilled
@@ -219,40 +227,48 @@ class HypergraphSearch:
                            key=lambda a: (-self.rank(a), a))
         movers = offenders or [a for a in sorted(arrangement) if a not in self.required]
         j_max = min(b, len(free))
-        counts = [j_max, j_max - 1, 1, 0]
-        picks: list[list[Site]] = []
-        for j in dict.fromkeys(c for c in counts if 0 <= c <= j_max):
-            if j == 0 and j_max > 0 and not offenders:
-                continue
-            picks.append(free[:j])
+        picks: list[tuple[list[Site], int, bool]] = []
+        for j in dict.fromkeys(c for c in (j_max, j_max - 1, 1) if 1 <= c <= j_max):
+            picks.append((free[:j], b - j, False))
         if len(free) > j_max >= 1:  # one variety: other slots than the first ones
             chosen = self.rng.choice(len(free), size=j_max, replace=False)
-            picks.append([free[i] for i in sorted(chosen)])
-        out: list[frozenset[Site]] = []
-        for slots in picks:
-            extra = self.space.buffers(arrangement | set(slots), movers, b - len(slots),
-                                       self.rng) if b > len(slots) else []
+            picks.append(([free[i] for i in sorted(chosen)], b - j_max, False))
+        if offenders and b >= 1:
+            picks += [([], n, True) for n in dict.fromkeys((1, b))]
+        out: list[tuple[frozenset[Site], bool]] = []
+        for slots, n_buffers, evict in picks:
+            extra = self.space.buffers(arrangement | set(slots), movers, n_buffers,
+                                       self.rng) if n_buffers > 0 else []
             nodes = arrangement | set(slots) | set(extra)
-            if nodes != arrangement and nodes not in out:
-                out.append(nodes)
+            if nodes != arrangement and all(nodes != o for o, _ in out):
+                out.append((nodes, evict))
             if len(out) >= self.config.max_proposals:
                 break
         return out
 
     # --- settling inside one graph ---------------------------------------------------------
-    def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site]
-               ) -> tuple[frozenset[Site], list[Transfer]]:
-        """Best arrangement of the class, then useful arcs, repeatedly; with the moves."""
+    def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
+               evict: bool = True) -> tuple[frozenset[Site], list[Transfer]]:
+        """Best arrangement of the class, then useful arcs, repeatedly; with the moves.
+
+        Without ``evict``, blocks do not stay on the graph's new non-goal sites.
+        """
+        if evict:
+            rank = self.rank
+        else:
+            def rank(s: Site) -> float:
+                new = s not in arrangement and s not in self.required
+                return 4.0 if new else self.rank(s)
         moves: list[Transfer] = []
         current = arrangement
         for _ in range(len(rpg.nodes) + 1):
-            target = best_arrangement(rpg, current, self.rank)
+            target = best_arrangement(rpg, current, rank)
             moves += rpg.moves_to(current, target)
             current = target
             arc = self.useful_arc(rpg, current)
             if arc is None:
                 break
-            prep, current = self.take_arc(rpg, current, arc)
+            prep, current = self.take_arc(rpg, current, arc, rank)
             moves += prep
             self.stats.arcs_taken += 1
         return current, moves
@@ -285,18 +301,19 @@ class HypergraphSearch:
         return best
 
     def take_arc(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
-                 arc: Transfer) -> tuple[list[Transfer], frozenset[Site]]:
+                 arc: Transfer, base: Callable[[Site], float]
+                 ) -> tuple[list[Transfer], frozenset[Site]]:
         u, v = arc.source, arc.target
 
         def rank(s: Site) -> float:
-            return -1.0 if s == u else 9.0 if s == v else self.rank(s)
+            return -1.0 if s == u else 9.0 if s == v else base(s)
         ready = best_arrangement(rpg, arrangement, rank)
         moves = rpg.moves_to(arrangement, ready)
         return [*moves, arc], (ready - {u}) | {v}
 
     # --- search ----------------------------------------------------------------------------
-    def child(self, parent: _Node, rpg: RearrangementPebbleGraph) -> _Node:
-        arrangement, moves = self.settle(rpg, parent.arrangement)
+    def child(self, parent: _Node, rpg: RearrangementPebbleGraph, evict: bool) -> _Node:
+        arrangement, moves = self.settle(rpg, parent.arrangement, evict)
         return _Node(arrangement, rpg,
                      parent.actions + sum(t.n_actions for t in moves),
                      parent.cost + sum(t.cost for t in moves), moves, parent,
@@ -326,8 +343,8 @@ class HypergraphSearch:
             if seen.get(node.arrangement, -1) < node.actions:
                 continue
             self.stats.expansions += 1
-            for nodes in self.proposals(node.arrangement):
-                kid = self.child(node, self.rpg(nodes))
+            for nodes, evict in self.proposals(node.arrangement):
+                kid = self.child(node, self.rpg(nodes), evict)
                 self.note_hypernode(kid.rpg, kid.arrangement)
                 if self.is_goal(kid.rpg, kid.arrangement):
                     return self.finish(kid)

@@ -3,13 +3,14 @@
 The hypergraph's transfers are feasible with *every* node of their graph occupied; when the
 sequence is replayed, fewer blocks stand around, so a move may be done more cheaply (one
 pick-and-place instead of a place-and-push) and two moves of the same block may become one.
-Three rewrites, each kept only when the whole rest of the sequence still replays and the
+Rewrites, each kept only when the whole rest of the sequence still replays and the
 plan gets shorter (fewer actions, then lower cost):
 
 * re-realise every transfer under the actual occupancy (``space.transfer(u, v, occupied)``);
 * a block's move u -> w followed (later) by its next move w -> v becomes one move u -> v,
   done at the time of the first or of the second;
-* a block's move u -> w followed by its next move w -> u disappears.
+* a block's move u -> w followed by its next move w -> u disappears;
+* two neighbouring independent moves swap (the first may have walled in the second).
 """
 
 from __future__ import annotations
@@ -85,9 +86,38 @@ def _candidates(moves: list[tuple[Site, Site]], i: int, j: int) -> list[list[tup
             [*moves[:i], (u, v), *rest, *moves[j + 1:]]]
 
 
+def _merges(moves: list[tuple[Site, Site]], start: Collection[Site]
+            ) -> list[list[tuple[Site, Site]]]:
+    """Sequences with two successive moves of one block merged (or dropped)."""
+    blocks = _block_of_each(start, moves)
+    out = []
+    last: dict[int, int] = {}
+    for j, blk in enumerate(blocks):
+        if blk in last:
+            out += _candidates(moves, last[blk], j)
+        last[blk] = j
+    return out
+
+
+def _swaps(moves: list[tuple[Site, Site]]) -> list[list[tuple[Site, Site]]]:
+    """Sequences with two neighbouring, independent moves (different blocks, no site the
+    second needs from the first) done the other way round: an earlier move may leave room
+    for a cheaper later one."""
+    out = []
+    for i in range(len(moves) - 1):
+        (a, b), (c, d) = moves[i], moves[i + 1]
+        if c != b and d != a:
+            out.append([*moves[:i], (c, d), (a, b), *moves[i + 2:]])
+    return out
+
+
 def smooth(space: OccupancySpace, start: Collection[Site], transfers: Sequence[Transfer],
-           max_rounds: int = 50) -> tuple[list[Transfer], SmoothingReport]:
-    """A shorter sequence with the same end arrangement (and the same block in each site)."""
+           max_rounds: int = 60) -> tuple[list[Transfer], SmoothingReport]:
+    """A shorter sequence with the same end arrangement (and the same block in each site).
+
+    Each round takes the first rewrite (merge, drop, then reorder) that makes the sequence
+    strictly better, so the rounds end.
+    """
     before = n_actions(transfers)
     best = list(transfers)
     moves = [(t.source, t.target) for t in transfers]
@@ -100,20 +130,10 @@ def smooth(space: OccupancySpace, start: Collection[Site], transfers: Sequence[T
         improved = False
         rounds += 1
         moves = [(t.source, t.target) for t in best]
-        blocks = _block_of_each(start, moves)
-        pairs = []
-        last: dict[int, int] = {}
-        for j, blk in enumerate(blocks):
-            if blk in last:
-                pairs.append((last[blk], j))
-            last[blk] = j
-        for i, j in pairs:
-            for cand in _candidates(moves, i, j):
-                realised = replay(space, start, cand)
-                if realised is not None and _score(realised) < _score(best):
-                    best = realised
-                    improved = True
-                    break
-            if improved:
+        for cand in [*_merges(moves, start), *_swaps(moves)]:
+            realised = replay(space, start, cand)
+            if realised is not None and _score(realised) < _score(best):
+                best = realised
+                improved = True
                 break
     return best, SmoothingReport(before, n_actions(best), rounds)
