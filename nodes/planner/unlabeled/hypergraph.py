@@ -51,6 +51,10 @@ class SearchSpace(TransferSpace, Protocol):
         """The site is in the goal's way (e.g. in the goal area but not a slot)."""
         ...
 
+    def transfer(self, u: Site, v: Site, occupied: frozenset[Site]) -> Transfer | None:
+        """The cheapest transfer u -> v while the sites ``occupied`` hold blocks."""
+        ...
+
 
 def _never(site: Site) -> bool:
     return False
@@ -119,6 +123,7 @@ class _Node:
     parent: _Node | None
     h: int = 0
     progress: int = 0
+    goal: bool = False
 
 
 class HypergraphSearch:
@@ -246,6 +251,27 @@ class HypergraphSearch:
                 break
         return out
 
+    def overlap_moves(self, arrangement: frozenset[Site]) -> list[Transfer]:
+        """Blocks moved straight onto a goal slot that overlaps their own site (and no other
+        block): no graph can hold both sites, so this is a transition between the graph of
+        the arrangement and the graph of the arrangement with the slot instead. Checked with
+        every other block in place, like a graph edge."""
+        out = []
+        unfilled = self.goal.unfilled(arrangement)
+        for a in sorted(arrangement):
+            if not self.hard_bad(a):
+                continue
+            for g in unfilled:
+                if not self.space.conflicts(a, g):
+                    continue
+                others = arrangement - {a}
+                if any(self.space.conflicts(g, o) for o in others):
+                    continue
+                t = self.space.transfer(a, g, others)
+                if t is not None:
+                    out.append(t)
+        return out
+
     # --- settling inside one graph ---------------------------------------------------------
     def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
                evict: bool = True) -> tuple[frozenset[Site], list[Transfer]]:
@@ -319,8 +345,20 @@ class HypergraphSearch:
                      parent.cost + sum(t.cost for t in moves), moves, parent,
                      self.heuristic(arrangement), self.progress(arrangement))
 
+    def slid(self, parent: _Node, t: Transfer) -> _Node:
+        """The hypernode after an overlap move: the new arrangement in its own graph."""
+        arrangement = (parent.arrangement - {t.source}) | {t.target}
+        return _Node(arrangement, self.rpg(arrangement), parent.actions + t.n_actions,
+                     parent.cost + t.cost, [t], parent, self.heuristic(arrangement),
+                     self.progress(arrangement))
+
     def run(self) -> list[Transfer]:
         """Transfers from the start arrangement to a goal arrangement.
+
+        A hypernode whose class holds a goal arrangement becomes a goal entry with its
+        total cost (the moves to that arrangement included); the search returns when a goal
+        entry comes off the queue, i.e. no open hypernode promises fewer actions (weighted
+        by ``weight``), or the best goal found so far when time or expansions run out.
 
         Raises:
             SearchFailure: no goal hypernode reached within the deadline / expansions.
@@ -331,36 +369,59 @@ class HypergraphSearch:
         heap = [(0.0, root.h, 0, 0.0, next(tie), root)]
         seen: dict[frozenset[Site], int] = {root.arrangement: 0}
         best_h = root.h
+        best_goal: _Node | None = None
         while heap:
-            if time.monotonic() > cfg.deadline:
-                raise SearchFailure(f"time budget exhausted; best arrangement still needed "
-                                    f"{best_h} actions", self.stats)
-            if self.stats.expansions >= cfg.max_expansions:
-                raise SearchFailure(f"{cfg.max_expansions} expansions without reaching the "
-                                    f"goal; best arrangement still needed {best_h} actions",
+            out_of_time = time.monotonic() > cfg.deadline
+            if out_of_time or self.stats.expansions >= cfg.max_expansions:
+                if best_goal is not None:
+                    return self.finish(best_goal)
+                why = ("time budget exhausted" if out_of_time else
+                       f"{cfg.max_expansions} expansions without reaching the goal")
+                raise SearchFailure(f"{why}; best arrangement still needed {best_h} actions",
                                     self.stats)
             *_, node = heapq.heappop(heap)
+            if node.goal:
+                return self.finish(node)
             if seen.get(node.arrangement, -1) < node.actions:
                 continue
             self.stats.expansions += 1
-            for nodes, evict in self.proposals(node.arrangement):
-                kid = self.child(node, self.rpg(nodes), evict)
+            kids = [self.child(node, self.rpg(nodes), evict)
+                    for nodes, evict in self.proposals(node.arrangement)]
+            kids += [self.slid(node, t) for t in self.overlap_moves(node.arrangement)]
+            for kid in kids:
                 self.note_hypernode(kid.rpg, kid.arrangement)
                 if self.is_goal(kid.rpg, kid.arrangement):
-                    return self.finish(kid)
+                    done = self.goal_entry(kid)
+                    if best_goal is None or (done.actions, done.cost) < (best_goal.actions,
+                                                                         best_goal.cost):
+                        best_goal = done
+                        heapq.heappush(heap, (float(done.actions), 0, -done.progress,
+                                              done.cost, next(tie), done))
+                    continue
                 if kid.arrangement in seen and seen[kid.arrangement] <= kid.actions:
                     continue
                 seen[kid.arrangement] = kid.actions
                 best_h = min(best_h, kid.h)
                 f = kid.actions + cfg.weight * kid.h
                 heapq.heappush(heap, (f, kid.h, -kid.progress, kid.cost, next(tie), kid))
+        if best_goal is not None:
+            return self.finish(best_goal)
         raise SearchFailure(f"the hypergraph ran out of hypernodes to expand; best "
                             f"arrangement still needed {best_h} actions", self.stats)
 
-    def finish(self, node: _Node) -> list[Transfer]:
+    def goal_entry(self, node: _Node) -> _Node:
+        """The goal reached from ``node``'s class: the final moves inside its graph."""
         rpg = node.rpg
         assert rpg is not None
         final = rpg.solve(node.arrangement, self.required, self.forbidden_in(rpg))
+        arrangement = frozenset(node.arrangement)
+        for t in final:
+            arrangement = (arrangement - {t.source}) | {t.target}
+        return _Node(arrangement, rpg, node.actions + sum(t.n_actions for t in final),
+                     node.cost + sum(t.cost for t in final), final, node, 0,
+                     self.progress(arrangement), goal=True)
+
+    def finish(self, node: _Node) -> list[Transfer]:
         chain: list[_Node] = []
         walk: _Node | None = node
         while walk is not None:
@@ -370,6 +431,6 @@ class HypergraphSearch:
         moves: list[Transfer] = []
         for n in chain:
             moves += n.moves
-            if n.rpg is not None:
+            if n.rpg is not None and not n.goal:
                 self.stats.hyperpath.append(self.note_hypernode(n.rpg, n.arrangement))
-        return moves + final
+        return moves
