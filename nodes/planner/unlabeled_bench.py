@@ -53,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def grid_shape(k: int) -> tuple[int, int]:
     """The most nearly square rows x cols = k (rows <= cols)."""
-    rows = max(r for r in range(1, int(math.isqrt(k)) + 1) if k % r == 0)
+    rows = max(r for r in range(1, math.isqrt(k) + 1) if k % r == 0)
     return rows, k // rows
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -40,7 +41,8 @@ def labeled_goal(scene: Scene, assignment: dict[int, int]) -> Goal:
 
 
 def plan_assignment(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                    plan_id: str | None = None) -> PlanOutcome:
+                    plan_id: str | None = None,
+                    should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
     """Min-cost assignment, then pIRS; the outcome's plan carries the unlabeled scene.
 
     Raises:
@@ -52,7 +54,8 @@ def plan_assignment(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
     assignment = assign_slots(scene)
     labeled = scene.with_goal(labeled_goal(scene, assignment))
     remaining = max(config.budget_s - (time.monotonic() - t0), 1e-3)
-    outcome = plan_scene(labeled, dataclasses.replace(config, budget_s=remaining), plan_id)
+    outcome = plan_scene(labeled, dataclasses.replace(config, budget_s=remaining), plan_id,
+                         should_stop)
     elapsed = time.monotonic() - t0
     metrics = dict(outcome.metrics)
     metrics["lower_bound"] = float(bound)

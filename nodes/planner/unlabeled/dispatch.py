@@ -19,7 +19,7 @@ from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.planner import plan_unlabeled
 from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
 
-Planner = Callable[[Scene, PlannerConfig, UnlabeledConfig, "str | None"], PlanOutcome]
+Planner = Callable[..., PlanOutcome]
 
 UNLABELED: dict[str, Planner] = {"pebble_graphs": plan_unlabeled, "assignment": plan_assignment}
 
@@ -34,7 +34,8 @@ def goal_kind(scene: Scene) -> str:
 
 
 def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None = None,
-              plan_id: str | None = None) -> PlanOutcome:
+              plan_id: str | None = None,
+              should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
     """Plan ``scene`` whatever its goal kind.
 
     A retrieval the pebble-graph method cannot do (or one asking for ``yaw_exact``) falls
@@ -47,19 +48,20 @@ def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None 
     ucfg = ucfg or UnlabeledConfig()
     kind = goal_kind(scene)
     if kind == "unlabeled":
-        return UNLABELED[ucfg.method](scene, config, ucfg, plan_id)
+        return UNLABELED[ucfg.method](scene, config, ucfg, plan_id, should_stop)
     if kind == "labeled":
-        return plan_scene(scene, config, plan_id)
+        return plan_scene(scene, config, plan_id, should_stop)
     if ucfg.retrieval_method == "pirs" or scene.goal.yaw_exact:
-        return plan_scene(scene, config, plan_id)
+        return plan_scene(scene, config, plan_id, should_stop)
     t0 = time.monotonic()
-    outcome = plan_retrieval(scene, config, ucfg, plan_id)
-    if outcome.ok:
+    outcome = plan_retrieval(scene, config, ucfg, plan_id, should_stop)
+    if outcome.ok or (should_stop is not None and should_stop()):
         return outcome
     remaining = config.budget_s - (time.monotonic() - t0)
     if remaining <= 0.0:
         return outcome
-    fallback = plan_scene(scene, dataclasses.replace(config, budget_s=remaining), plan_id)
+    fallback = plan_scene(scene, dataclasses.replace(config, budget_s=remaining), plan_id,
+                          should_stop)
     metrics = {**fallback.metrics, "fallback": 1.0}
     error = fallback.error and f"{fallback.error} (pebble-graph retrieval: {outcome.error})"
     return dataclasses.replace(fallback, metrics=metrics, error=error,

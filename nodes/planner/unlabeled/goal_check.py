@@ -1,9 +1,10 @@
-"""Is an unlabeled goal met? Every slot needs some block on it (nearest-block matching).
+"""Which slots of an unlabeled goal hold a block (nearest-block matching)?
 
 Slots do not overlap and the tolerance is far below a block size, so a block can stand on at
 most one slot and a slot holds at most one block: matching each slot to a block within
 tolerance is enough, no assignment problem to solve. Yaw counts modulo 90 degrees unless the
-goal asks for ``yaw_exact``. The executor verifies unlabeled goals the same way.
+goal asks for ``yaw_exact``. The replay validator and the executor check the end state the
+same way; here it gives the lower bound and which blocks already stand on a slot.
 """
 
 from __future__ import annotations
@@ -30,19 +31,3 @@ def unfilled_slots(scene: Scene, poses: Iterable[Pose2D], tol_xy: float, tol_yaw
     slots = goal.slot_poses(scene.block_size)
     return [k for k, slot in enumerate(slots)
             if not any(on_slot(p, slot, tol_xy, tol_yaw, goal.yaw_exact) for p in blocks)]
-
-
-def unlabeled_goal_errors(scene: Scene, poses: Iterable[Pose2D], tol_xy: float,
-                          tol_yaw: float) -> list[str]:
-    """One message per unfilled slot, naming it and the nearest block's offset."""
-    blocks = list(poses)
-    slots = scene.goal.slot_poses(scene.block_size) if scene.goal is not None else []
-    errors = []
-    for k in unfilled_slots(scene, blocks, tol_xy, tol_yaw):
-        slot = slots[k]
-        near = min(blocks, key=lambda p: math.hypot(p.x - slot.x, p.y - slot.y), default=None)
-        where = ("no block at all" if near is None else
-                 f"nearest block {math.hypot(near.x - slot.x, near.y - slot.y) * 1000:.1f} mm "
-                 "away")
-        errors.append(f"end: goal slot {k} ({slot.x:.4f}, {slot.y:.4f}) is empty ({where})")
-    return errors

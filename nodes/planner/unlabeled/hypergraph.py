@@ -90,6 +90,7 @@ class SearchConfig:
     deadline: float = float("inf")  # time.monotonic() deadline
     max_expansions: int = 5000
     max_proposals: int = 4  # RPGs proposed per expansion
+    should_stop: Callable[[], bool] | None = None  # polled per expansion: give up when True
 
 
 @dataclass
@@ -371,6 +372,8 @@ class HypergraphSearch:
         best_h = root.h
         best_goal: _Node | None = None
         while heap:
+            if cfg.should_stop is not None and cfg.should_stop():
+                raise SearchFailure("stopped on request", self.stats)
             out_of_time = time.monotonic() > cfg.deadline
             if out_of_time or self.stats.expansions >= cfg.max_expansions:
                 if best_goal is not None:

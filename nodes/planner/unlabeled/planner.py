@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 import uuid
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import shapely
@@ -120,8 +120,10 @@ def slot_sites(space: CellSpace, scene: Scene, block_sites: Mapping[int, Site],
 
 
 def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                   plan_id: str | None = None) -> PlanOutcome:
-    """Plan ``scene`` (start blocks + unlabeled goal) with rearrangement pebble graphs.
+                   plan_id: str | None = None,
+                   should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
+    """Plan ``scene`` (start blocks + unlabeled goal) with rearrangement pebble graphs;
+    ``should_stop`` (polled between hypernode expansions) ends the search as a failure.
 
     Raises:
         MessageError: no goal, a labeled goal, or ``yaw_exact``.
@@ -159,7 +161,8 @@ def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
     search = HypergraphSearch(
         space, block_sites.values(), ArrangementGoal(required, extra=pushes_ahead, order=order),
         SearchConfig(b=ucfg.b, weight=ucfg.weight, deadline=t0 + config.budget_s,
-                     max_expansions=ucfg.max_expansions, max_proposals=ucfg.max_proposals),
+                     max_expansions=ucfg.max_expansions, max_proposals=ucfg.max_proposals,
+                     should_stop=should_stop),
         np.random.default_rng(config.seed))
     try:
         transfers = search.run()

@@ -12,6 +12,7 @@ then move the named block. A named block, once on its target, stays fixed.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 import shapely
@@ -47,9 +48,10 @@ def is_retrieval(scene: Scene) -> bool:
 
 class _Retrieval:
     def __init__(self, scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                 deadline: float) -> None:
+                 deadline: float, should_stop: Callable[[], bool] | None) -> None:
         self.scene, self.config, self.ucfg = scene, config, ucfg
         self.deadline = deadline
+        self.should_stop = should_stop
         self.ctx, self.space = make_space(scene, config, ucfg)
         self.targets = scene.goal_assignment()
         self.pose = {b.id: b.pose for b in scene.blocks}
@@ -114,7 +116,8 @@ class _Retrieval:
             space, start, goal,
             SearchConfig(b=max(self.ucfg.b, 1), weight=self.ucfg.weight,
                          deadline=self.deadline, max_expansions=self.ucfg.max_expansions,
-                         max_proposals=self.ucfg.max_proposals), self.rng)
+                         max_proposals=self.ucfg.max_proposals,
+                         should_stop=self.should_stop), self.rng)
         try:
             transfers = search.run()
         finally:
@@ -143,7 +146,8 @@ class _Failed(Exception):
 
 
 def plan_retrieval(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                   plan_id: str | None = None) -> PlanOutcome:
+                   plan_id: str | None = None,
+                   should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
     """Plan a labeled goal that names only some blocks (see the module docstring).
 
     Raises:
@@ -157,7 +161,7 @@ def plan_retrieval(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
                            "the pirs method for yaw_exact goals")
     t0 = time.monotonic()
     bound = lower_bound(scene, config)
-    run = _Retrieval(scene, config, ucfg, t0 + config.budget_s)
+    run = _Retrieval(scene, config, ucfg, t0 + config.budget_s, should_stop)
     metrics: dict[str, float] = {"lower_bound": float(bound),
                                  "n_blocks": float(len(scene.blocks))}
     try:
