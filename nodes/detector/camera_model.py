@@ -97,6 +97,31 @@ class CameraModel:
 
 
 # --- the calibration file ------------------------------------------------------------------
+def read_ros_parameters(path: str | Path) -> dict:
+    """The parameters of a ``--params-file`` YAML, nested keys joined with dots.
+
+    ``camera_pose: {position: ...}`` and ``camera_pose.position: ...`` mean the same to ROS;
+    both come back as ``{"camera_pose.position": ...}``. Every node section is merged.
+    """
+    data = yaml.safe_load(Path(path).read_text()) or {}
+    params: dict = {}
+    for section in data.values() if isinstance(data, dict) else ():
+        if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
+            params.update(_flatten(section["ros__parameters"]))
+    return params
+
+
+def _flatten(tree: dict, prefix: str = "") -> dict:
+    out: dict = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_flatten(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
 def load_camera_pose(path: str | Path) -> CameraPose:
     """Read ``camera_pose.*`` from a ``/**: ros__parameters:`` YAML file.
 
@@ -104,11 +129,7 @@ def load_camera_pose(path: str | Path) -> CameraPose:
         MessageError: the file lacks the keys or holds a bad pose.
         OSError: the file cannot be read.
     """
-    data = yaml.safe_load(Path(path).read_text()) or {}
-    params = {}
-    for section in data.values():
-        if isinstance(section, dict):
-            params.update(section.get("ros__parameters") or {})
+    params = read_ros_parameters(path)
     try:
         return CameraPose(tuple(params["camera_pose.position"]),
                           tuple(params["camera_pose.orientation_xyzw"]))

@@ -14,12 +14,12 @@ from collections.abc import Iterator
 import cv2
 import numpy as np
 import pybullet
-import yaml
 
 from msgs_py.camera import CameraIntrinsics, CameraPose
 from nodes.common.paths import config_path
 from nodes.common.transforms import tool_down_quaternion
 from nodes.detector.bench import Frame, scene_for
+from nodes.detector.camera_model import read_ros_parameters
 from nodes.detector.tag_geometry import tag_corners_world
 
 SETTLE_S = 0.25  # physics time before the first frame, s
@@ -28,14 +28,7 @@ ARM_HOVER_Z = 0.10  # TCP height over the block the arm hides, m
 
 def _yaml_parameters(name: str) -> dict:
     path = config_path(name)
-    if not path.exists():
-        return {}
-    data = yaml.safe_load(path.read_text()) or {}
-    out: dict = {}
-    for section in data.values():
-        if isinstance(section, dict):
-            out.update(section.get("ros__parameters") or {})
-    return out
+    return read_ros_parameters(path) if path.exists() else {}
 
 
 def _config(cls, values: dict, prefix: str = ""):

@@ -66,3 +66,15 @@ def test_bad_intrinsics_and_poses_are_refused():
         CameraIntrinsics(640, 480, 0.0, 500.0, 320.0, 240.0)
     with pytest.raises(MessageError, match="unit quaternion"):
         CameraPose((0, 0, 1), (0, 0, 0, 2))
+
+
+def test_nested_and_dotted_parameter_files_read_the_same(tmp_path):
+    nested = tmp_path / "nested.yaml"
+    nested.write_text("/**:\n  ros__parameters:\n    camera_pose:\n"
+                      "      position: [0.7, 0.0, 1.25]\n"
+                      "      orientation_xyzw: [0.7071068, -0.7071068, 0.0, 0.0]\n")
+    pose = load_camera_pose(nested)
+    assert pose.position == (0.7, 0.0, 1.25)
+    np.testing.assert_allclose(
+        CameraModel.from_pose(overhead_camera().intrinsics, pose).rotation,
+        overhead_camera().rotation, atol=1e-6)  # q and -q: the nominal overhead camera
