@@ -14,7 +14,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from msgs_py import BlockPose
 from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
-from msgs_py.ros_codecs import block_set_from_markers, stamp_to_ns
+from msgs_py.ros_codecs import block_set_from_markers, ns_to_stamp, stamp_to_ns
 from nodes.common.qos import SENSOR
 from nodes.detector.node import DetectorNode
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
@@ -56,9 +56,10 @@ class Camera:
         if stamp_ns is None:
             self.stamp_ns += 100_000_000
             stamp_ns = self.stamp_ns
-        info = info or intrinsics_to_camera_info(
-            CAMERA.intrinsics, stamp_ns if info_stamp_ns is None else info_stamp_ns)
-        image = image or array_to_image(pixels, stamp_ns)
+        info = info or intrinsics_to_camera_info(CAMERA.intrinsics, 0)
+        info.header.stamp = ns_to_stamp(stamp_ns if info_stamp_ns is None else info_stamp_ns)
+        image = image or array_to_image(pixels, 0)
+        image.header.stamp = ns_to_stamp(stamp_ns)
         self.infos.publish(info)
         self.images.publish(image)
         return stamp_ns
@@ -86,6 +87,14 @@ def wait_for_warning(node, text: str, timeout=10.0) -> None:
             return
         time.sleep(0.05)
     raise AssertionError(f"no warning containing '{text}' in {list(node.recent_warnings)}")
+
+
+def collect(ros) -> list:
+    """Every /blocks/detected message from now on (the subscription lives as long as the
+    harness: destroying it while the executor spins would race)."""
+    published: list = []
+    ros.probe.create_subscription(MarkerArray, "/blocks/detected", published.append, 10)
+    return published
 
 
 @pytest.fixture
@@ -148,41 +157,29 @@ def test_bad_frames_are_skipped_with_a_warning_and_nothing_stale_is_published(ro
     node, camera = setup
     detection(ros, camera, frame())
     _, bad = _bad_images()
-    published = []
-    sub = ros.probe.create_subscription(MarkerArray, "/blocks/detected", published.append, 10)
-    try:
-        for text, image in bad.items():
-            stamp = camera.stamp_ns = camera.stamp_ns + 100_000_000
-            image.header.stamp = array_to_image(np.zeros((1, 1, 3), np.uint8), stamp).header.stamp
-            camera.send(image=image, stamp_ns=stamp)
-            wait_for_warning(node, text)
-        bad_info = intrinsics_to_camera_info(CAMERA.intrinsics, 0)
-        bad_info.k = [0.0] * 9
-        stamp = camera.stamp_ns = camera.stamp_ns + 100_000_000
-        bad_info.header.stamp = array_to_image(np.zeros((1, 1, 3), np.uint8), stamp).header.stamp
-        camera.send(frame(), stamp_ns=stamp, info=bad_info)
-        wait_for_warning(node, "camera_info.k")
-        time.sleep(0.3)
-        assert published == []  # not one message for a bad frame
-    finally:
-        ros.probe.destroy_subscription(sub)
+    published = collect(ros)
+    for text, image in bad.items():
+        camera.send(image=image)
+        wait_for_warning(node, text)
+    bad_info = intrinsics_to_camera_info(CAMERA.intrinsics, 0)
+    bad_info.k = [0.0] * 9
+    camera.send(frame(), info=bad_info)
+    wait_for_warning(node, "camera_info.k")
+    time.sleep(0.3)
+    assert published == []  # not one message for a bad frame
     assert block_set_from_markers(detection(ros, camera, frame())).ids == [0, 1, 2, 3, 4, 5]
 
 
 def test_images_without_matching_camera_info_are_not_processed(ros, setup):
     node, camera = setup
-    published = []
-    sub = ros.probe.create_subscription(MarkerArray, "/blocks/detected", published.append, 10)
-    try:
-        pixels = frame()
-        for _ in range(8):
-            camera.stamp_ns += 100_000_000
-            camera.send(pixels, stamp_ns=camera.stamp_ns, info_stamp_ns=camera.stamp_ns + 1)
-            time.sleep(0.1)
-        wait_for_warning(node, "no camera_info")
-        assert published == [] and node.frames == 0
-    finally:
-        ros.probe.destroy_subscription(sub)
+    published = collect(ros)
+    pixels = frame()
+    for _ in range(8):
+        camera.stamp_ns += 100_000_000
+        camera.send(pixels, stamp_ns=camera.stamp_ns, info_stamp_ns=camera.stamp_ns + 1)
+        time.sleep(0.1)
+    wait_for_warning(node, "no camera_info")
+    assert published == [] and node.frames == 0
 
 
 def test_a_frame_older_than_the_last_one_is_not_published(ros, setup):
