@@ -15,6 +15,8 @@ import time
 from collections import deque
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.clock import JumpThreshold
+from rclpy.duration import Duration
 from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
@@ -68,6 +70,11 @@ class DetectorNode(Node):
                                  callback_group=group)
         self.create_service(Trigger, "~/reset", self.on_reset, callback_group=group)
         self.create_timer(WATCHDOG_PERIOD_S, self.watchdog, callback_group=group)
+        # A sim reset restarts simulated time: frames then carry older stamps, yet are new.
+        self._clock_jumped = False
+        self._jump_handle = self.get_clock().create_jump_callback(
+            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1),
+                          on_clock_change=False), post_callback=self._on_clock_jump)
         self.get_logger().info(
             f"camera pose from {source}: position {pose.position}; "
             f"{self.detector.describe()}")
@@ -75,10 +82,11 @@ class DetectorNode(Node):
     # --- inputs ---------------------------------------------------------------------------
     def on_image(self, msg: Image) -> None:
         self._last_image_wall = time.monotonic()
-        result = self.pairer.add_image(stamp_to_ns(msg.header.stamp), msg)
-        self._handle(result)
+        self._follow_clock_jump()
+        self._handle(self.pairer.add_image(stamp_to_ns(msg.header.stamp), msg))
 
     def on_info(self, msg: CameraInfo) -> None:
+        self._follow_clock_jump()
         self._handle(self.pairer.add_info(stamp_to_ns(msg.header.stamp), msg))
 
     def on_reset(self, request: Trigger.Request, response: Trigger.Response):
@@ -86,6 +94,17 @@ class DetectorNode(Node):
         response.success = True
         response.message = "forgot the blocks seen so far"
         return response
+
+    def _on_clock_jump(self, jump) -> None:
+        self._clock_jumped = True  # handled in the camera callbacks' thread
+
+    def _follow_clock_jump(self) -> None:
+        if self._clock_jumped:
+            self._clock_jumped = False
+            self.pairer.reset()
+            self.detector.reset()
+            self.warn("clock", "the clock jumped back (simulation reset?): starting afresh, "
+                      "known blocks forgotten")
 
     # --- processing -----------------------------------------------------------------------
     def _handle(self, result) -> None:

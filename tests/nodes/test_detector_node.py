@@ -196,3 +196,24 @@ def test_without_a_camera_pose_the_node_refuses_to_start(ros, tmp_path):
     overrides = [Parameter("calibration_file", value=str(tmp_path / "none.yaml"))]
     with pytest.raises(ValueError, match="densepack-calibrate"):
         DetectorNode(context=ros.context, parameter_overrides=overrides)
+
+
+def test_a_simulation_reset_restarts_the_stamps_without_losing_frames(ros):
+    from rosgraph_msgs.msg import Clock
+
+    node = ros.add(DetectorNode(context=ros.context,
+                                parameter_overrides=params(use_sim_time=True)))
+    camera = Camera(ros)
+    clock = ros.publisher("/clock", Clock)
+    ros.wait_for_subscribers(clock)
+    clock.publish(Clock(clock=ns_to_stamp(800_000_000)))
+    camera.stamp_ns = 800_000_000
+    first = stamp_to_ns(detection(ros, camera, frame()).markers[0].header.stamp)
+    # the sim restarts its time at 0: frames stamped 0.1 s are new frames, not stale ones
+    # (a jump back this small is told from a late frame only by /clock)
+    clock.publish(Clock(clock=ns_to_stamp(50_000_000)))
+    time.sleep(0.2)
+    camera.stamp_ns = 0
+    msg = detection(ros, camera, frame())
+    assert stamp_to_ns(msg.markers[0].header.stamp) < first
+    wait_for_warning(node, "the clock jumped back")
