@@ -31,6 +31,10 @@ EDGE_STEP_PX = 0.25
 EDGE_CORNER_MARGIN_CELLS = 1.0
 EDGE_SAMPLES = 24
 MIN_EDGE_CONTRAST = 20.0  # grey levels (0-255) between the black border and the margin
+#: Adaptive-threshold window sizes (px) of the coarse search: 3 and 13. OpenCV's default
+#: adds 23, which finds nothing more for tags of 30-80 px (cells of 4-10 px) and costs ~40 %
+#: of the detection time (measured on sim frames and noisy synthetic ones).
+THRESHOLD_WINDOWS = (3, 13, 10)  # min, max, step
 
 
 @dataclass(frozen=True)
@@ -62,6 +66,8 @@ class TagFinder:
         params.cornerRefinementMethod = _OPENCV_METHOD.get(
             settings.refinement, cv2.aruco.CORNER_REFINE_NONE)
         params.markerBorderBits = 1
+        (params.adaptiveThreshWinSizeMin, params.adaptiveThreshWinSizeMax,
+         params.adaptiveThreshWinSizeStep) = THRESHOLD_WINDOWS
         self._params = params
         self._dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11)
         self._detectors: dict[tuple[int, int], cv2.aruco.ArucoDetector] = {}
