@@ -200,7 +200,8 @@ def block_obj() -> str:
         vn_lines.append(f"vn {normal[0]} {normal[1]} {normal[2]}")
         a, b, c, d = (4 * k + j + 1 for j in range(4))
         n = k + 1
-        f_lines += [f"f {a}/{a}/{n} {b}/{b}/{n} {c}/{c}/{n}", f"f {a}/{a}/{n} {c}/{c}/{n} {d}/{d}/{n}"]
+        f_lines += [f"f {a}/{a}/{n} {b}/{b}/{n} {c}/{c}/{n}",
+                    f"f {a}/{a}/{n} {c}/{c}/{n} {d}/{d}/{n}"]
     return "\n".join(lines + vt_lines + vn_lines + f_lines) + "\n"
 
 

@@ -23,7 +23,7 @@ class SimConfig:
                             "scene file (msgs_py scene; relative paths resolve under config/); "
                             "ignored when random.n_blocks > 0")
     physics_rate_hz: float = param(240.0, "physics step rate (>= 240)", unit="Hz")
-    solver_iterations: int = param(50, "constraint solver iterations per physics step")
+    solver_iterations: int = param(100, "constraint solver iterations per physics step")
     real_time_factor: float = param(
         1.0, "pacing: simulated seconds per wall second (0 = as fast as possible)")
     clock_rate_hz: float = param(100.0, "/clock publish rate in simulated time", unit="Hz")

@@ -120,7 +120,7 @@ class EventMonitor:
         resting = speed < self.moving_speed and spin < self.moving_spin
         if not resting or z > self.block_size:  # carried or in flight: judged when it rests
             return ""
-        qx, qy, qz, qw = (float(v) for v in quat)
+        qx, qy = float(quat[0]), float(quat[1])
         up_z = 1.0 - 2.0 * (qx * qx + qy * qy)  # world z of the block's z axis
         if up_z < math.cos(self.tip_angle):
             return "tipped over"

@@ -102,22 +102,35 @@ def joint_origins(q) -> np.ndarray:
     return out
 
 
+def joint_heights(qs: np.ndarray) -> np.ndarray:
+    """(n, 4) world z of the elbow, wrist 1, wrist 2 and wrist 3 joint centres (closed form).
+
+    Vectorised over solutions: the elbow at d1 + a2 sin q2, wrist 1 a3 sin(q2 + q3) higher,
+    wrist 2 at the same height (d4 is horizontal), wrist 3 -d5 cos(q2 + q3 + q4) from there.
+    """
+    qs = np.atleast_2d(qs)
+    q2, q23, q234 = qs[:, 1], qs[:, 1] + qs[:, 2], qs[:, 1] + qs[:, 2] + qs[:, 3]
+    elbow = rm.DH_D[0] + rm.DH_A[1] * np.sin(q2)
+    wrist1 = elbow + rm.DH_A[2] * np.sin(q23)
+    wrist3 = wrist1 - rm.DH_D[4] * np.cos(q234)
+    return np.column_stack([elbow, wrist1, wrist1, wrist3])
+
+
 def _solutions(t_flange: np.ndarray) -> tuple[list[np.ndarray], int]:
     """Checked closed-form solutions, and how many were dropped for going below the table."""
     sols = ur10e.inverse_kinematics(np.ascontiguousarray(t_flange, dtype=float))
-    good, below = [], 0
+    checked = []
     for q in sols:
-        q = np.asarray(q, dtype=float)
         if not np.all(np.isfinite(q)):
             continue
-        dp, dr = pose_error(flange_pose(q), t_flange)
-        if dp > IK_CHECK_POS or dr > IK_CHECK_ROT:
-            continue
-        if np.min(joint_origins(q)[1:5, 2]) < MIN_JOINT_HEIGHT:
-            below += 1
-            continue
-        good.append(q)
-    return good, below
+        error = np.abs(ur10e.forward_kinematics(*q) - t_flange)
+        if error[:3, 3].max() <= IK_CHECK_POS and error[:3, :3].max() <= IK_CHECK_ROT:
+            checked.append(np.asarray(q, dtype=float))
+    if not checked:
+        return [], 0
+    above = joint_heights(np.array(checked)).min(axis=1) >= MIN_JOINT_HEIGHT
+    good = [q for q, ok in zip(checked, above, strict=True) if ok]
+    return good, len(checked) - len(good)
 
 
 def travel_time(q: np.ndarray, q_ref: np.ndarray) -> float:

@@ -29,6 +29,8 @@ GRAVITY = 9.81
 DISTURB_SPEED = 0.05
 DISTURB_TIMEOUT_S = 10.0
 DISTURB_MAX_FORCE = 5.0
+#: N, strength of the constraint that couples the fingers (well above any grip force).
+FINGER_COUPLING_FORCE = 500.0
 
 
 @dataclass
@@ -98,9 +100,17 @@ class SimWorld:
         self.link_kind.update({j: ContactKind.GRIPPER for j in gripper_links})
         self.link_kind.update({j: ContactKind.FINGER for j in self.finger_links})
         for j in self.finger_links:
-            c.changeDynamics(self.robot, j, lateralFriction=rm.FRICTION_PAD)
+            # Friction anchors keep a held block from creeping and rolling between the pads.
+            c.changeDynamics(self.robot, j, lateralFriction=rm.FRICTION_PAD, frictionAnchor=1)
         for j in range(-1, c.getNumJoints(self.robot)):
             c.changeDynamics(self.robot, j, linearDamping=0.0, angularDamping=0.0)
+        # The 2F-85's linkage moves both fingers together (one motor): a gear constraint keeps
+        # them symmetric, so a held block stays centred and cannot drift along the closing axis.
+        gear = c.createConstraint(self.robot, self.finger_joints[0], self.robot,
+                                  self.finger_joints[1], pybullet.JOINT_GEAR, [1, 0, 0],
+                                  [0, 0, 0], [0, 0, 0])
+        c.changeConstraint(gear, gearRatio=-1, maxForce=FINGER_COUPLING_FORCE, erp=0.2,
+                           relativePositionTarget=0.0)
 
     def _texture(self, tag_id: int) -> int:
         if tag_id not in self._textures:
@@ -119,7 +129,7 @@ class SimWorld:
         c.changeVisualShape(body, -1, textureUniqueId=self._texture(block.id),
                             rgbaColor=[1, 1, 1, 1])
         c.changeDynamics(body, -1, lateralFriction=rm.FRICTION_BLOCK, linearDamping=0.0,
-                         angularDamping=0.0)
+                         angularDamping=0.0, frictionAnchor=1)
         return body
 
     # --- lifecycle ------------------------------------------------------------------------------
