@@ -14,7 +14,7 @@ from nodes.sim.camera import CameraModel
 PARK_POSITION = (0.25, -0.55, 0.40)
 PARK_YAW = 0.0
 #: ``PARK_POSITION`` solved on the elbow-up, wrist-down branch the workspace is reached on.
-HOME_JOINTS = (1.70513, -1.35085, 1.50603, 1.41562, 1.57080, 0.13433)
+HOME_JOINTS = (1.7050197, -1.3509143, 1.5056703, 1.4160404, 1.5707963, 0.1342234)
 
 
 @dataclass(frozen=True)

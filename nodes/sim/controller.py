@@ -102,17 +102,21 @@ class ArmController:
         if float(np.max(dist)) < 1e-12:
             self.v_cmd = np.zeros(6)
             return self.q_cmd.copy(), self.v_cmd.copy()
-        # Per-joint speed we may have now: the limit, what still brakes in time, what reaches
-        # the target this step; the straight line in joint space is kept by one common scale.
-        allowed = np.minimum(self.v_max, np.sqrt(2.0 * self.a_max * dist))
-        allowed = np.minimum(allowed, dist / dt)
+        # Per-joint speed we may have now: the limit, what still brakes to a stop on the target
+        # (discrete-time bound), what reaches it this step; one common scale keeps the motion
+        # on a straight line in joint space, and one common fraction of the velocity change
+        # keeps every joint inside its acceleration limit.
+        a_dt = self.a_max * dt
+        brake = a_dt * (np.sqrt(0.25 + 2.0 * dist / (a_dt * dt)) - 0.5)
+        allowed = np.minimum(np.minimum(self.v_max, brake), dist / dt)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(dist > 0, allowed / dist, np.inf)
-        v_des = error * float(np.min(ratio))
-        dv = np.clip(v_des - self.v_cmd, -self.a_max * dt, self.a_max * dt)
-        v = self.v_cmd + dv
+        dv = error * float(np.min(ratio)) - self.v_cmd
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(np.abs(dv) > 0, a_dt / np.abs(dv), np.inf)
+        v = self.v_cmd + dv * min(1.0, float(np.min(room)))
         step = v * dt
-        # Never step past the target (the acceleration clip can leave a joint too fast).
+        # Never step past the target (possible only right after the target jumped back).
         over = np.abs(step) > dist
         step = np.where(over, error, step)
         v = np.where(over, error / dt, v)
