@@ -94,7 +94,8 @@ class SimNode(Node):
                                  RELIABLE, callback_group=group)
         self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
                                  callback_group=group)
-        self.create_subscription(String, "/executor/status", self._on_status, LATCHED,
+        # Volatile on purpose: it matches the executor whether it latches its status or not.
+        self.create_subscription(String, "/executor/status", self._on_status, RELIABLE,
                                  callback_group=group)
         self.create_subscription(String, "/sim/disturb", self._on_disturb, RELIABLE,
                                  callback_group=group)

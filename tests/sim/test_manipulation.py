@@ -79,3 +79,24 @@ def test_disturbance_moves_a_block_about_that_much(world_factory):
     block = world.block_poses()[0]
     assert math.hypot(block.x - 0.73, block.y + 0.02) < 0.005
     assert not world.disturbances
+
+
+def test_event_monitor_counts_a_finger_landing_on_a_neighbour(world_factory):
+    # block 1 stands 6 mm from block 0: a grasp of 0 across x puts a finger on top of 1
+    world = world_factory([(0, 0.60, 0.0, 0.0), (1, 0.60 + 0.0508 + 0.006, 0.0, 0.0)])
+    world.set_manipulated(0)
+    streamer = scripted.Streamer(world)
+    streamer.move_to([0.60, 0.0, scripted.SAFE_Z], yaw=0.0)
+    streamer.gripper(0.0508 + 2 * scripted.CLEARANCE)
+    streamer.move_to([0.60, 0.0, 0.03], speed=0.1)
+    summary = world.monitor.summary()
+    assert summary["unintended_contacts"] >= 1
+    assert all(e["block"] == 1 for e in summary["events"] if e["type"] == "unintended_contact")
+
+
+def test_block_pushed_out_of_the_workspace_is_lost(world_factory):
+    world = world_factory([(2, 0.92, 0.0, 0.0)])
+    world.disturb(2, 0.09, 0.0)
+    world.step(round(4.0 / world.config.dt))
+    assert world.monitor.blocks_lost == 1
+    assert world.monitor.events[-1]["reason"] == "out of the workspace"
