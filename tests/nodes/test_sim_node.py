@@ -7,7 +7,6 @@ import math
 import subprocess
 import time
 
-import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
