@@ -116,26 +116,27 @@ def joint_heights(qs: np.ndarray) -> np.ndarray:
     return np.column_stack([elbow, wrist1, wrist1, wrist3])
 
 
-def _solutions(t_flange: np.ndarray) -> tuple[list[np.ndarray], int]:
-    """Checked closed-form solutions, and how many were dropped for going below the table."""
+def _solutions(t_flange: np.ndarray) -> tuple[np.ndarray, int]:
+    """(n, 6) checked closed-form solutions, and how many went below the table."""
     sols = ur10e.inverse_kinematics(np.ascontiguousarray(t_flange, dtype=float))
-    checked = []
-    for q in sols:
-        if not np.all(np.isfinite(q)):
-            continue
-        error = np.abs(ur10e.forward_kinematics(*q) - t_flange)
-        if error[:3, 3].max() <= IK_CHECK_POS and error[:3, :3].max() <= IK_CHECK_ROT:
-            checked.append(np.asarray(q, dtype=float))
-    if not checked:
-        return [], 0
-    above = joint_heights(np.array(checked)).min(axis=1) >= MIN_JOINT_HEIGHT
-    good = [q for q, ok in zip(checked, above, strict=True) if ok]
-    return good, len(checked) - len(good)
+    if not sols:
+        return np.empty((0, 6)), 0
+    qs = np.asarray(sols, dtype=float)
+    qs = qs[np.all(np.isfinite(qs), axis=1)]
+    if not len(qs):
+        return qs, 0
+    error = np.abs(np.stack([ur10e.forward_kinematics(*q) for q in qs]) - t_flange)
+    ok = (error[:, :3, 3].max(axis=1) <= IK_CHECK_POS) & (
+        error[:, :3, :3].reshape(len(qs), -1).max(axis=1) <= IK_CHECK_ROT)
+    qs = qs[ok]
+    above = joint_heights(qs).min(axis=1) >= MIN_JOINT_HEIGHT
+    return qs[above], int(np.count_nonzero(~above))
 
 
-def travel_time(q: np.ndarray, q_ref: np.ndarray) -> float:
-    """Seconds the slowest joint needs at its velocity limit: the branch-choice metric."""
-    return float(np.max(np.abs(q - q_ref) / np.asarray(rm.JOINT_VELOCITY_LIMIT)))
+def travel_time(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+    """Seconds the slowest joint needs at its velocity limit (per row of ``q``): the
+    branch-choice metric."""
+    return np.max(np.abs(q - q_ref) / np.asarray(rm.JOINT_VELOCITY_LIMIT), axis=-1)
 
 
 def solve_tcp_ik(t_tcp: np.ndarray, q_ref, allow_flip: bool = True) -> IkResult:
@@ -143,21 +144,21 @@ def solve_tcp_ik(t_tcp: np.ndarray, q_ref, allow_flip: bool = True) -> IkResult:
     if not np.all(np.isfinite(t_tcp)):
         return IkResult(None, "setpoint is not finite")
     q_ref = np.asarray(q_ref, dtype=float)
-    candidates: list[tuple[float, np.ndarray, bool]] = []
     targets = [(t_tcp, False)] + ([(t_tcp @ FLIP_Z, True)] if allow_flip else [])
     below = 0
+    found, flags = [], []
     for target, flipped in targets:
         sols, dropped = _solutions(target @ TCP_TO_FLANGE)
         below += dropped
-        for q in sols:
-            q = nearest_turn(q, q_ref)
-            candidates.append((travel_time(q, q_ref), q, flipped))
-    if not candidates:
+        found.append(sols)
+        flags += [flipped] * len(sols)
+    candidates = nearest_turn(np.concatenate(found), q_ref) if flags else np.empty((0, 6))
+    if not len(candidates):
         reach = float(np.linalg.norm(t_tcp[:3, 3]))
         if below:
             return IkResult(None, f"no IK solution keeps the elbow and wrists above the table "
                                   f"(TCP {reach:.3f} m from the base)")
         return IkResult(None, f"no IK solution: TCP pose out of the UR10e's reach "
                               f"({reach:.3f} m from the base)")
-    _, q, flipped = min(candidates, key=lambda c: c[0])
-    return IkResult(q, flipped=flipped)
+    best = int(np.argmin(travel_time(candidates, q_ref)))
+    return IkResult(candidates[best], flipped=flags[best])

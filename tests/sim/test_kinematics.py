@@ -128,3 +128,10 @@ def test_unreachable_and_below_table_poses_have_reasons():
     assert not under.ok and under.reason
     nan = kin.solve_tcp_ik(np.full((4, 4), np.nan), q_ref)
     assert not nan.ok and "finite" in nan.reason
+
+
+def test_closed_form_joint_heights_match_the_dh_chain():
+    rng = np.random.default_rng(3)
+    qs = rng.uniform(-rm.JOINT_LIMIT, rm.JOINT_LIMIT, (100, 6))
+    chain = np.array([kin.joint_origins(q)[1:5, 2] for q in qs])
+    assert np.allclose(kin.joint_heights(qs), chain, atol=1e-12)
