@@ -136,6 +136,24 @@ def test_gripper_command_and_reset(ros):
     assert sim.world.time_s < 5.0
 
 
+def test_executor_status_names_the_manipulated_block(ros):
+    from msgs_py import ExecutorStatus
+    from msgs_py.ros_codecs import to_string_msg
+
+    sim = make_sim(ros)
+    pub = send(ros, "/executor/status", String,
+               to_string_msg(ExecutorStatus("running", action_index=1, action_total=3, block=3)))
+    deadline = time.monotonic() + 10
+    while sim.world.monitor.manipulated != 3 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert sim.world.monitor.manipulated == 3
+    pub.publish(to_string_msg(ExecutorStatus("observing")))
+    deadline = time.monotonic() + 10
+    while sim.world.monitor.manipulated is not None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert sim.world.monitor.manipulated is None
+
+
 def test_disturb_pushes_a_block(ros):
     make_sim(ros)
     send(ros, "/sim/disturb", String, String(data=json.dumps({"block": 4, "dx": 0.02,
