@@ -188,7 +188,7 @@ class SimNode(Node):
                        if self.camera_config.rate_hz > 0 else 0),
         }
         wall0, sim0 = time.monotonic(), self.world.time_s
-        while not self._stop.is_set():
+        while not self._stop.is_set() and self.context.ok():
             try:
                 while self._commands:
                     self._commands.popleft()()
@@ -197,6 +197,8 @@ class SimNode(Node):
                 self.world.step()
                 self._publish_due(every)
             except Exception as err:  # never let the loop die silently
+                if not self.context.ok():
+                    break  # shutting down: publishers are gone
                 self.get_logger().error(f"sim loop error: {type(err).__name__}: {err}")
             if cfg.real_time_factor > 0:
                 ahead = (self.world.time_s - sim0) / cfg.real_time_factor - (
