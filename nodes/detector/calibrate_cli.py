@@ -131,7 +131,9 @@ class CalibrateNode(Node):
 
     def write(self, result: CalibrationResult) -> str:
         path = config_path(self.config.output_file)
-        save_camera_pose(path, result.camera.pose, comment=result.report())
+        source = (f"from the tags of {len(self.known)} blocks at the poses of "
+                  f"{self.config.known_poses_file}:\n")
+        save_camera_pose(path, result.camera.pose, comment=source + result.report())
         return str(path)
 
 

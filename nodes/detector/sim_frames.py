@@ -31,7 +31,7 @@ def _yaml_parameters(name: str) -> dict:
     return read_ros_parameters(path) if path.exists() else {}
 
 
-def _config(cls, values: dict, prefix: str = ""):
+def config_from_parameters(cls, values: dict, prefix: str = ""):
     """A params dataclass with the values config/sim.yaml gives (defaults otherwise)."""
     kwargs = {}
     for f in dataclasses.fields(cls):
@@ -51,8 +51,8 @@ def sim_frames(seeds, density: float, noise: float | None):
     from nodes.sim.world import SimWorld
 
     values = _yaml_parameters("sim.yaml")
-    sim_config = _config(SimConfig, values)
-    camera_config = _config(CameraConfig, values, "camera.")
+    sim_config = config_from_parameters(SimConfig, values)
+    camera_config = config_from_parameters(CameraConfig, values, "camera.")
     camera = camera_config.model()
     noise_std = camera_config.noise_std if noise is None else noise
     intrinsics = CameraIntrinsics(camera.width, camera.height, camera.fx, camera.fy,
