@@ -26,7 +26,7 @@ class UnlabeledConfig:
         "pebble_graphs", "planner for labeled goals that name only some blocks: "
         "'pebble_graphs' (clear the way with unlabeled pebble motion, then move the named "
         "block) or 'pirs' (the labeled planner, unnamed blocks as movable obstacles)")
-    b: int = param(2, "b: empty nodes added to the blocks' poses in each rearrangement "
+    b: int = param(1, "b: empty nodes added to the blocks' poses in each rearrangement "
                    "pebble graph (more: better connected graphs, bigger ones)")
     weight: float = param(
         1.5, "weight of the heuristic in the hypergraph A* (1: fewest actions the graphs "
