@@ -252,6 +252,42 @@ class HypergraphSearch:
                 break
         return out
 
+    def obstructors(self, arrangement: frozenset[Site], slot: Site) -> list[list[Site]]:
+        """When no block can get to ``slot`` as things stand: sets of blocks whose removal
+        lets one in (e.g. blocks on filled slots in front of it), smallest first, each found
+        by taking every other block away and putting back all that are not in the way."""
+        transfer = self.space.transfer
+        if any(transfer(u, slot, arrangement - {u}) is not None for u in arrangement):
+            return []
+        found: list[list[Site]] = []
+        for u in sorted(arrangement):
+            if transfer(u, slot, frozenset()) is None:
+                continue
+            away = set(arrangement - {u})
+            for a in sorted(away, key=lambda a: (self.rank(a) != 0.0, -self.rank(a), a)):
+                if transfer(u, slot, frozenset(arrangement - {u} - (away - {a}))) is not None:
+                    away.discard(a)  # it can stay
+            found.append(sorted(away, key=lambda a: (self.rank(a) == 0.0, a)))
+        return sorted(found, key=lambda g: (len(g), sum(self.rank(a) == 0.0 for a in g)))
+
+    def unblock(self, arrangement: frozenset[Site]
+                ) -> tuple[frozenset[Site], frozenset[Site]] | None:
+        """A graph that moves obstructors of the first free slot (those that can move now,
+        at most b) to buffers: the nodes and the sites to vacate, or None."""
+        free = [s for s in self.goal.unfilled(arrangement)
+                if not any(self.space.conflicts(s, a) for a in arrangement)]
+        if not free or self.config.b < 1:
+            return None
+        for away in self.obstructors(arrangement, free[0]):
+            extra = self.space.buffers(arrangement, away, min(len(away), self.config.b),
+                                       self.rng)
+            movable = [a for a in away
+                       if any(self.space.transfer(a, z, arrangement - {a}) is not None
+                              for z in extra)][:len(extra)]
+            if movable:
+                return arrangement | set(extra), frozenset(movable)
+        return None
+
     def overlap_moves(self, arrangement: frozenset[Site]) -> list[Transfer]:
         """Blocks moved straight onto a goal slot that overlaps their own site (and no other
         block): no graph can hold both sites, so this is a transition between the graph of
@@ -275,17 +311,19 @@ class HypergraphSearch:
 
     # --- settling inside one graph ---------------------------------------------------------
     def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
-               evict: bool = True) -> tuple[frozenset[Site], list[Transfer]]:
+               evict: bool = True, vacate: frozenset[Site] = frozenset()
+               ) -> tuple[frozenset[Site], list[Transfer]]:
         """Best arrangement of the class, then useful arcs, repeatedly; with the moves.
 
-        Without ``evict``, blocks do not stay on the graph's new non-goal sites.
+        Without ``evict``, blocks do not stay on the graph's new non-goal sites; blocks on
+        ``vacate`` leave them if they can.
         """
-        if evict:
-            rank = self.rank
-        else:
-            def rank(s: Site) -> float:
-                new = s not in arrangement and s not in self.required
-                return 4.0 if new else self.rank(s)
+        def rank(s: Site) -> float:
+            if s in vacate:
+                return 5.0
+            if not evict and s not in arrangement and s not in self.required:
+                return 4.0
+            return self.rank(s)
         moves: list[Transfer] = []
         current = arrangement
         for _ in range(len(rpg.nodes) + 1):
@@ -339,8 +377,9 @@ class HypergraphSearch:
         return [*moves, arc], (ready - {u}) | {v}
 
     # --- search ----------------------------------------------------------------------------
-    def child(self, parent: _Node, rpg: RearrangementPebbleGraph, evict: bool) -> _Node:
-        arrangement, moves = self.settle(rpg, parent.arrangement, evict)
+    def child(self, parent: _Node, rpg: RearrangementPebbleGraph, evict: bool,
+              vacate: frozenset[Site] = frozenset()) -> _Node:
+        arrangement, moves = self.settle(rpg, parent.arrangement, evict, vacate)
         return _Node(arrangement, rpg,
                      parent.actions + sum(t.n_actions for t in moves),
                      parent.cost + sum(t.cost for t in moves), moves, parent,
@@ -365,6 +404,8 @@ class HypergraphSearch:
             SearchFailure: no goal hypernode reached within the deadline / expansions.
         """
         cfg = self.config
+        if self.required <= self.start and not any(self.goal.forbidden(s) for s in self.start):
+            return []  # already there
         root = _Node(self.start, None, 0, 0.0, [], None, self.heuristic(self.start))
         tie = itertools.count()
         heap = [(0.0, root.h, 0, 0.0, next(tie), root)]
@@ -391,6 +432,11 @@ class HypergraphSearch:
             kids = [self.child(node, self.rpg(nodes), evict)
                     for nodes, evict in self.proposals(node.arrangement)]
             kids += [self.slid(node, t) for t in self.overlap_moves(node.arrangement)]
+            fresh = [kid for kid in kids if kid.arrangement not in seen]
+            if not any(kid.h < node.h for kid in fresh):
+                stuck = self.unblock(node.arrangement)
+                if stuck is not None:
+                    kids.append(self.child(node, self.rpg(stuck[0]), True, stuck[1]))
             for kid in kids:
                 self.note_hypernode(kid.rpg, kid.arrangement)
                 if self.is_goal(kid.rpg, kid.arrangement):

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from nodes.planner.unlabeled.hypergraph import (
     ArrangementGoal,
@@ -128,3 +130,34 @@ def test_unreachable_goal_fails_with_a_reason():
     space = GraphSpace(edges=[(0, 1)], spare=[])
     with pytest.raises(SearchFailure, match=r"ran out|expansions"):
         run(space, {0}, ArrangementGoal(required=(7,)), b=1)
+
+
+@st.composite
+def shelf_problems(draw):
+    depth = draw(st.integers(1, 5))
+    n_out = draw(st.integers(0, 3))
+    shelf = ShelfSpace(depth=depth)
+    outside = shelf.outside_sites(n_out)
+    inside = draw(st.lists(st.integers(0, depth - 1), unique=True, max_size=depth))
+    start = set(inside) | set(outside)
+    k = len(start)
+    # fill the back of the shelf with as many blocks as fit, any of them
+    required = tuple(range(depth - 1, depth - 1 - min(k, depth), -1))
+    return shelf, start, required, draw(st.integers(1, 3))
+
+
+@given(shelf_problems())
+def test_shelf_searches_end_in_the_goal_with_replayable_moves(case):
+    shelf, start, required, b = case
+    search = HypergraphSearch(shelf, start, ArrangementGoal(required=required),
+                              SearchConfig(b=b), np.random.default_rng(0))
+    moves = search.run()
+    end = replay(start, moves)
+    assert set(required) <= end and len(end) == len(start)
+    occ = set(start)
+    for t in moves:  # each move is feasible for the blocks standing there at its turn
+        assert shelf.transfer(t.source, t.target, frozenset(occ - {t.source})) is not None
+        occ = (occ - {t.source}) | {t.target}
+    smoothed, report = smooth(shelf, start, moves)
+    assert set(required) <= replay(start, smoothed)
+    assert report.actions_after <= report.actions_before
