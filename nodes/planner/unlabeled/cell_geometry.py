@@ -48,8 +48,14 @@ QUARTER = 0.5 * math.pi
 #: Tolerances (m) for "u lies on a push line of v" and the shortest push.
 LINE_TOL = 1e-7
 MIN_PUSH = 1e-4
-#: Candidate positions drawn per buffer request.
+#: Candidate positions drawn per buffer request, plus a lattice of this step (block sizes)
+#: over the whole workspace, so that crowded tables still yield the free spots they have.
 BUFFER_CANDIDATES = 400
+LATTICE_STEP = 0.125
+#: How much (m) the zone is shrunk for the fast overlap test of buffer candidates.
+ZONE_SHRINK = 1e-5
+#: Smallest gap (m) between a buffer and any block.
+MIN_BUFFER_GAP = 0.003
 
 
 @dataclass(frozen=True)
@@ -92,6 +98,9 @@ class CellSpace:
         self.fixed_polys = list(self.footprints_of(self.fixed))
         self.zone: Polygon | None = None
         self.core: Polygon | None = None
+        self._lattice_cache: tuple[np.ndarray, ...] | None = None
+        self._zone_in: Polygon | None = None
+        self._core_in: Polygon | None = None
         self.zone_slots: frozenset[Site] = frozenset()
         self._conflicts: dict[tuple[Site, Site], bool] = {}
         self._obstructs: dict[Site, bool] = {}
@@ -134,8 +143,42 @@ class CellSpace:
         they must never be parked (``core``: the slots themselves)."""
         self.zone = zone
         self.core = core
+        self._lattice_cache = None
+        # shrunk a hair and prepared: "intersects" then means a real overlap, fast
+        self._zone_in, self._core_in = (
+            None if r is None else shapely.buffer(r, -ZONE_SHRINK, join_style="mitre")
+            for r in (zone, core))
+        for r in (self._zone_in, self._core_in):
+            if r is not None:
+                shapely.prepare(r)
         self.zone_slots = frozenset(slots)
         self._obstructs.clear()
+
+    def _zone_flags(self, corners: np.ndarray, feet: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Candidate footprints: usable (inside the workspace, off the slots) and in zone."""
+        ok = self.ctx.workspace.contains(corners)
+        in_zone = np.zeros(len(feet), dtype=bool)
+        if self._core_in is not None:
+            ok &= ~shapely.intersects(self._core_in, feet)
+        if self._zone_in is not None:
+            in_zone = shapely.intersects(self._zone_in, feet)
+        return ok, in_zone
+
+    def _lattice(self) -> tuple[np.ndarray, ...]:
+        """Buffer candidates on a fixed lattice over the workspace, with their zone flags
+        (computed once per zone)."""
+        if self._lattice_cache is None:
+            w, half = self.ctx.workspace, 0.5 * self.s
+            xs = np.arange(w.x_min + half, w.x_max - half + 1e-9, LATTICE_STEP * self.s)
+            ys = np.arange(w.y_min + half, w.y_max - half + 1e-9, LATTICE_STEP * self.s)
+            xy = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+            yaw = np.full(len(xy), self.buffer_yaw)
+            corners = block_corners(xy[:, 0], xy[:, 1], yaw, self.s)
+            feet = to_polygons(corners)
+            shapely.prepare(feet)
+            self._lattice_cache = (xy, yaw, feet, *self._zone_flags(corners, feet))
+        return self._lattice_cache
 
     def obstructs(self, site: Site) -> bool:
         if site not in self._obstructs:
@@ -188,48 +231,57 @@ class CellSpace:
     # --- buffers ---------------------------------------------------------------------------
     def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
                 rng: np.random.Generator) -> list[Site]:
-        """Up to ``count`` new sites clear of ``nodes`` and fixed blocks, nearest to the sites
-        ``near`` first: out of the goal zone with room for fingers around them if possible,
-        else off the slots, else off the slots with little room (tiers tried in turn)."""
+        """Up to ``count`` new sites clear of ``nodes``, fixed blocks and the slots.
+
+        Preferred, in turn: out of the goal zone with room for fingers all around (the
+        pads reach ``buffer_clearance`` past a face), then in the zone with that room, then
+        the roomiest spots left (at least 3 mm); within a tier, nearest to the sites
+        ``near`` (short moves).
+        """
         if count <= 0:
             return []
         w, half = self.ctx.workspace, 0.5 * self.s
         k = BUFFER_CANDIDATES
-        xy = np.column_stack([rng.uniform(w.x_min + half, w.x_max - half, k),
-                              rng.uniform(w.y_min + half, w.y_max - half, k)])
-        corners = block_corners(xy[:, 0], xy[:, 1], np.full(k, self.buffer_yaw), self.s)
-        inside = self.ctx.workspace.contains(corners)
-        feet = to_polygons(corners)
-        order = np.arange(k)
+        # random candidates at any yaw (a turned block may fit a gap) and a fixed lattice
+        # square to the goal, whose zone tests are cached
+        rand_xy = np.column_stack([rng.uniform(w.x_min + half, w.x_max - half, k),
+                                   rng.uniform(w.y_min + half, w.y_max - half, k)])
+        rand_yaw = rng.uniform(-QUARTER / 2, QUARTER / 2, k) + self.buffer_yaw
+        r_corners = block_corners(rand_xy[:, 0], rand_xy[:, 1], rand_yaw, self.s)
+        r_feet = to_polygons(r_corners)
+        r_ok, r_zone = self._zone_flags(r_corners, r_feet)
+        l_xy, l_yaw, l_feet, l_ok, l_zone = self._lattice()
+        xy = np.concatenate([rand_xy, l_xy])
+        yaw = np.concatenate([rand_yaw, l_yaw])
+        feet = np.concatenate([r_feet, l_feet])
+        ok = np.concatenate([r_ok, l_ok])
+        in_zone = np.concatenate([r_zone, l_zone])
+        blocks = [self.footprints[n] for n in nodes] + self.fixed_polys
+        room = np.full(len(feet), np.inf)
+        if blocks:
+            room[ok] = shapely.distance(feet[ok], shapely.union_all(blocks))
+        ok &= room >= MIN_BUFFER_GAP
+        roomy = room >= self.buffer_clearance
+        tier = np.where(roomy & ~in_zone, 0, np.where(roomy, 1, 2))
+        dist = np.zeros(len(feet))
         if near:
             ref = _poses([self.poses[n] for n in near])[:, :2]
-            d = np.min(np.hypot(xy[:, None, 0] - ref[None, :, 0], xy[:, None, 1] - ref[None, :, 1]),
-                       axis=1)
-            order = np.argsort(d, kind="stable")
-        blocks = [self.footprints[n] for n in nodes] + self.fixed_polys
-        tiers = [(self.zone, self.buffer_clearance), (self.core, self.buffer_clearance),
-                 (self.core, 0.003)]
+            dist = np.min(np.hypot(xy[:, None, 0] - ref[None, :, 0],
+                                   xy[:, None, 1] - ref[None, :, 1]), axis=1)
+        squeeze = np.where(tier == 2, -np.minimum(room, self.buffer_clearance), 0.0)
+        order = np.lexsort((dist, squeeze, tier))
         chosen: list[int] = []
-        grown_chosen: list[Polygon] = []
-        for region, clearance in tiers:
+        grown: list[Polygon] = []
+        for c in order:
             if len(chosen) == count:
                 break
-            grown = shapely.buffer(feet, clearance, join_style="mitre")
-            ok = inside.copy()
-            if blocks:
-                left, _ = shapely.STRtree(blocks).query(grown, predicate="intersects")
-                ok[left] = False
-            if region is not None:
-                ok &= ~shapely.intersects(feet, region) | (
-                    shapely.area(shapely.intersection(feet, region)) <= OVERLAP_AREA_TOL)
-            for c in order:
-                if len(chosen) == count:
-                    break
-                if ok[c] and c not in chosen and not any(grown[c].intersects(g)
-                                                         for g in grown_chosen):
-                    chosen.append(int(c))
-                    grown_chosen.append(grown[c])
-        return [self.add_site(Pose2D(float(xy[c, 0]), float(xy[c, 1]), self.buffer_yaw))
+            if not ok[c]:
+                continue
+            mine = shapely.buffer(feet[c], 0.5 * self.buffer_clearance, join_style="mitre")
+            if all(not mine.intersects(g) for g in grown):
+                chosen.append(int(c))
+                grown.append(mine)
+        return [self.add_site(Pose2D(float(xy[c, 0]), float(xy[c, 1]), float(yaw[c])))
                 for c in chosen]
 
     # --- one block's ways from u to v, and the room each needs ----------------------------

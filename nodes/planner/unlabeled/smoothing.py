@@ -10,6 +10,8 @@ plan gets shorter (fewer actions, then lower cost):
 * a block's move u -> w followed (later) by its next move w -> v becomes one move u -> v,
   done at the time of the first or of the second;
 * a block's move u -> w followed by its next move w -> u disappears;
+* a block's move a -> b followed by another block's c -> a becomes c -> b (blocks are alike:
+  this is only for interchangeable blocks, which is all this module is used for);
 * two neighbouring independent moves swap (the first may have walled in the second).
 """
 
@@ -99,6 +101,23 @@ def _merges(moves: list[tuple[Site, Site]], start: Collection[Site]
     return out
 
 
+def _shortcuts(moves: list[tuple[Site, Site]]) -> list[list[tuple[Site, Site]]]:
+    """A block moves a -> b, later another takes its place c -> a: the blocks being alike,
+    the second may go c -> b instead and the first stay (a shifted chain of blocks
+    becomes one move)."""
+    out = []
+    for i, (a, b) in enumerate(moves):
+        for j in range(i + 1, len(moves)):
+            c, d = moves[j]
+            if a in (c, d) or b in (c, d):
+                if d == a and c != b:
+                    rest = moves[i + 1:j]
+                    out.append([*moves[:i], *rest, (c, b), *moves[j + 1:]])
+                    out.append([*moves[:i], (c, b), *rest, *moves[j + 1:]])
+                break  # the first later move touching a or b decides
+    return out
+
+
 def _swaps(moves: list[tuple[Site, Site]]) -> list[list[tuple[Site, Site]]]:
     """Sequences with two neighbouring, independent moves (different blocks, no site the
     second needs from the first) done the other way round: an earlier move may leave room
@@ -113,7 +132,7 @@ def _swaps(moves: list[tuple[Site, Site]]) -> list[list[tuple[Site, Site]]]:
 
 def smooth(space: OccupancySpace, start: Collection[Site], transfers: Sequence[Transfer],
            max_rounds: int = 60) -> tuple[list[Transfer], SmoothingReport]:
-    """A shorter sequence with the same end arrangement (and the same block in each site).
+    """A shorter sequence with the same end arrangement (of interchangeable blocks).
 
     Each round takes the first rewrite (merge, drop, then reorder) that makes the sequence
     strictly better, so the rounds end.
@@ -130,7 +149,7 @@ def smooth(space: OccupancySpace, start: Collection[Site], transfers: Sequence[T
         improved = False
         rounds += 1
         moves = [(t.source, t.target) for t in best]
-        for cand in [*_merges(moves, start), *_swaps(moves)]:
+        for cand in [*_merges(moves, start), *_shortcuts(moves), *_swaps(moves)]:
             realised = replay(space, start, cand)
             if realised is not None and _score(realised) < _score(best):
                 best = realised
