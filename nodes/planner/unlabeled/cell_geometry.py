@@ -233,10 +233,10 @@ class CellSpace:
                 rng: np.random.Generator) -> list[Site]:
         """Up to ``count`` new sites clear of ``nodes``, fixed blocks and the slots.
 
-        Preferred, in turn: out of the goal zone with room for fingers all around (the
-        pads reach ``buffer_clearance`` past a face), then in the zone with that room, then
-        the roomiest spots left (at least 3 mm); within a tier, nearest to the sites
-        ``near`` (short moves).
+        Preferred, in turn: room for fingers all around (the pads reach
+        ``buffer_clearance`` past a face) out of the goal zone, then in it; room for the
+        fingers on one grasp axis, out of the zone, then in it; the roomiest spots left (at
+        least 3 mm). Within a tier, nearest to the sites ``near`` (short moves).
         """
         if count <= 0:
             return []
@@ -262,13 +262,25 @@ class CellSpace:
             room[ok] = shapely.distance(feet[ok], shapely.union_all(blocks))
         ok &= room >= MIN_BUFFER_GAP
         roomy = room >= self.buffer_clearance
-        tier = np.where(roomy & ~in_zone, 0, np.where(roomy, 1, 2))
+        graspable = roomy.copy()
+        tight = np.flatnonzero(ok & ~roomy)
+        if len(tight) and blocks:
+            pads = grasp_finger_corners(self.geom, xy[tight, 0, None], xy[tight, 1, None],
+                                        yaw[tight, None], np.arange(2))  # (T, 2, 2, 4, 2)
+            left, _ = shapely.STRtree(blocks).query(to_polygons(pads.reshape(-1, 4, 2)),
+                                                    predicate="intersects")
+            hit = np.zeros(len(tight) * 4, dtype=bool)
+            hit[left] = True
+            axis_free = ~hit.reshape(-1, 2, 2).any(-1) & self.ctx.table.contains(pads).all(-1)
+            graspable[tight] = axis_free.any(-1)
+        tier = np.select([roomy & ~in_zone, roomy, graspable & ~in_zone, graspable],
+                         [0, 1, 2, 3], 4)
         dist = np.zeros(len(feet))
         if near:
             ref = _poses([self.poses[n] for n in near])[:, :2]
             dist = np.min(np.hypot(xy[:, None, 0] - ref[None, :, 0],
                                    xy[:, None, 1] - ref[None, :, 1]), axis=1)
-        squeeze = np.where(tier == 2, -np.minimum(room, self.buffer_clearance), 0.0)
+        squeeze = np.where(tier >= 2, -np.minimum(room, self.buffer_clearance), 0.0)
         order = np.lexsort((dist, squeeze, tier))
         chosen: list[int] = []
         grown: list[Polygon] = []
