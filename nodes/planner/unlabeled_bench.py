@@ -2,7 +2,8 @@
 
 For each k in --k, plans --seeds random scenes (``nodes.common.scenes`` scatter, same seeds
 and workspace as ``random_scene``; the goal grid is the most nearly square rows x cols = k,
-so 3 and 8 blocks get 1x3 and 2x4 grids) with: the pebble-graph planner for each b in --b,
+so 3 and 8 blocks get 1x3 and 2x4 grids; a seed whose blocks do not fit the workspace at
+that density is left out and listed) with: the pebble-graph planner for each b in --b,
 the baseline (min-cost assignment + labeled pIRS) and the labeled pIRS planner on the same
 blocks with the labeled grid goal. Reports success rate, planning time (median, p90),
 actions (median) before and after smoothing, actions / lower bound and, for the unlabeled
@@ -122,18 +123,29 @@ def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
         config = PlannerConfig(budget_s=opts.budget)
         labeled, baseline = _Tally(), _Tally()
         pebble = {b: _Tally() for b in bs}
+        skipped = []
         for seed in seeds:
             cfg = dataclasses.replace(config, seed=seed)
-            scene = bench_scene(k, opts.density, seed, labeled=False)
+            try:
+                scene = bench_scene(k, opts.density, seed, labeled=False)
+            except RuntimeError:  # the blocks do not fit at this density: no instance
+                skipped.append(seed)
+                continue
             for b in bs:
                 pebble[b].add(seed, plan_unlabeled(scene, cfg, UnlabeledConfig(b=b)))
             if not opts.no_baselines:
                 baseline.add(seed, plan_assignment(scene, cfg, UnlabeledConfig()))
                 labeled.add(seed, plan_scene(bench_scene(k, opts.density, seed, True), cfg))
         ref = None if opts.no_baselines else labeled
+        n = n_seeds - len(skipped)
+        if n == 0:
+            continue
+        new = []
         if not opts.no_baselines:
-            rows.append(labeled.row(k, opts.density, "labeled_pirs", "-", n_seeds, None))
-            rows.append(baseline.row(k, opts.density, "assignment_pirs", "-", n_seeds, ref))
-        for b in bs:
-            rows.append(pebble[b].row(k, opts.density, "pebble_graphs", b, n_seeds, ref))
+            new.append(labeled.row(k, opts.density, "labeled_pirs", "-", n, None))
+            new.append(baseline.row(k, opts.density, "assignment_pirs", "-", n, ref))
+        new += [pebble[b].row(k, opts.density, "pebble_graphs", b, n, ref) for b in bs]
+        for row in new:
+            row["seeds_without_scene"] = skipped
+        rows += new
     return rows

@@ -55,7 +55,7 @@ LATTICE_STEP = 0.125
 #: How much (m) the zone is shrunk for the fast overlap test of buffer candidates.
 ZONE_SHRINK = 1e-5
 #: Smallest gap (m) between a buffer and any block.
-MIN_BUFFER_GAP = 0.003
+MIN_BUFFER_GAP = 0.001
 
 
 @dataclass(frozen=True)
@@ -155,15 +155,16 @@ class CellSpace:
         self._obstructs.clear()
 
     def _zone_flags(self, corners: np.ndarray, feet: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-        """Candidate footprints: usable (inside the workspace, off the slots) and in zone."""
-        ok = self.ctx.workspace.contains(corners)
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Candidate footprints: inside the workspace, in the zone, on a slot."""
+        inside = self.ctx.workspace.contains(corners)
         in_zone = np.zeros(len(feet), dtype=bool)
+        in_core = np.zeros(len(feet), dtype=bool)
         if self._core_in is not None:
-            ok &= ~shapely.intersects(self._core_in, feet)
+            in_core = shapely.intersects(self._core_in, feet)
         if self._zone_in is not None:
             in_zone = shapely.intersects(self._zone_in, feet)
-        return ok, in_zone
+        return inside, in_zone, in_core
 
     def _lattice(self) -> tuple[np.ndarray, ...]:
         """Buffer candidates on a fixed lattice over the workspace, with their zone flags
@@ -231,12 +232,13 @@ class CellSpace:
     # --- buffers ---------------------------------------------------------------------------
     def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
                 rng: np.random.Generator) -> list[Site]:
-        """Up to ``count`` new sites clear of ``nodes``, fixed blocks and the slots.
+        """Up to ``count`` new sites clear of ``nodes`` and fixed blocks.
 
         Preferred, in turn: room for fingers all around (the pads reach
         ``buffer_clearance`` past a face) out of the goal zone, then in it; room for the
         fingers on one grasp axis, out of the zone, then in it; the roomiest spots left (at
-        least 3 mm). Within a tier, nearest to the sites ``near`` (short moves).
+        least 1 mm); on a slot, when nothing else is left (a crowded table). Within a tier,
+        nearest to the sites ``near`` (short moves).
         """
         if count <= 0:
             return []
@@ -249,13 +251,14 @@ class CellSpace:
         rand_yaw = rng.uniform(-QUARTER / 2, QUARTER / 2, k) + self.buffer_yaw
         r_corners = block_corners(rand_xy[:, 0], rand_xy[:, 1], rand_yaw, self.s)
         r_feet = to_polygons(r_corners)
-        r_ok, r_zone = self._zone_flags(r_corners, r_feet)
-        l_xy, l_yaw, l_feet, l_ok, l_zone = self._lattice()
+        r_ok, r_zone, r_core = self._zone_flags(r_corners, r_feet)
+        l_xy, l_yaw, l_feet, l_ok, l_zone, l_core = self._lattice()
         xy = np.concatenate([rand_xy, l_xy])
         yaw = np.concatenate([rand_yaw, l_yaw])
         feet = np.concatenate([r_feet, l_feet])
         ok = np.concatenate([r_ok, l_ok])
         in_zone = np.concatenate([r_zone, l_zone])
+        in_core = np.concatenate([r_core, l_core])
         blocks = [self.footprints[n] for n in nodes] + self.fixed_polys
         room = np.full(len(feet), np.inf)
         if blocks:
@@ -263,7 +266,7 @@ class CellSpace:
         ok &= room >= MIN_BUFFER_GAP
         roomy = room >= self.buffer_clearance
         graspable = roomy.copy()
-        tight = np.flatnonzero(ok & ~roomy)
+        tight = np.flatnonzero(ok & ~roomy & ~in_core)
         if len(tight) and blocks:
             pads = grasp_finger_corners(self.geom, xy[tight, 0, None], xy[tight, 1, None],
                                         yaw[tight, None], np.arange(2))  # (T, 2, 2, 4, 2)
@@ -273,8 +276,8 @@ class CellSpace:
             hit[left] = True
             axis_free = ~hit.reshape(-1, 2, 2).any(-1) & self.ctx.table.contains(pads).all(-1)
             graspable[tight] = axis_free.any(-1)
-        tier = np.select([roomy & ~in_zone, roomy, graspable & ~in_zone, graspable],
-                         [0, 1, 2, 3], 4)
+        tier = np.select([in_core, roomy & ~in_zone, roomy, graspable & ~in_zone, graspable],
+                         [5, 0, 1, 2, 3], 4)
         dist = np.zeros(len(feet))
         if near:
             ref = _poses([self.poses[n] for n in near])[:, :2]

@@ -38,8 +38,9 @@ def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None 
               should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
     """Plan ``scene`` whatever its goal kind.
 
-    A retrieval the pebble-graph method cannot do (or one asking for ``yaw_exact``) falls
-    back to pIRS within what is left of the time budget; ``metrics['fallback']`` says so.
+    When the pebble-graph planner fails an unlabeled goal, the baseline (assignment + pIRS)
+    gets what is left of the time budget; a retrieval it cannot do (or one asking for
+    ``yaw_exact``) goes to pIRS the same way; ``metrics['fallback']`` says so.
 
     Raises:
         MessageError: no goal, or a goal the chosen planner refuses (named field).
@@ -48,21 +49,34 @@ def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None 
     ucfg = ucfg or UnlabeledConfig()
     kind = goal_kind(scene)
     if kind == "unlabeled":
-        return UNLABELED[ucfg.method](scene, config, ucfg, plan_id, should_stop)
+        t0 = time.monotonic()
+        outcome = UNLABELED[ucfg.method](scene, config, ucfg, plan_id, should_stop)
+        if ucfg.method == "pebble_graphs" and not outcome.ok:
+            return _fall_back(outcome, t0, config, should_stop, lambda cfg: plan_assignment(
+                scene, cfg, ucfg, plan_id, should_stop), "pebble-graph planner")
+        return outcome
     if kind == "labeled":
         return plan_scene(scene, config, plan_id, should_stop)
     if ucfg.retrieval_method == "pirs" or scene.goal.yaw_exact:
         return plan_scene(scene, config, plan_id, should_stop)
     t0 = time.monotonic()
     outcome = plan_retrieval(scene, config, ucfg, plan_id, should_stop)
-    if outcome.ok or (should_stop is not None and should_stop()):
+    if outcome.ok:
         return outcome
+    return _fall_back(outcome, t0, config, should_stop,
+                      lambda cfg: plan_scene(scene, cfg, plan_id, should_stop),
+                      "pebble-graph retrieval")
+
+
+def _fall_back(outcome: PlanOutcome, t0: float, config: PlannerConfig,
+               should_stop: Callable[[], bool] | None,
+               other: Callable[[PlannerConfig], PlanOutcome], what: str) -> PlanOutcome:
+    """``other`` within what is left of the budget after ``outcome`` failed."""
     remaining = config.budget_s - (time.monotonic() - t0)
-    if remaining <= 0.0:
+    if remaining <= 0.0 or (should_stop is not None and should_stop()):
         return outcome
-    fallback = plan_scene(scene, dataclasses.replace(config, budget_s=remaining), plan_id,
-                          should_stop)
+    fallback = other(dataclasses.replace(config, budget_s=remaining))
     metrics = {**fallback.metrics, "fallback": 1.0}
-    error = fallback.error and f"{fallback.error} (pebble-graph retrieval: {outcome.error})"
+    error = fallback.error and f"{fallback.error} ({what}: {outcome.error})"
     return dataclasses.replace(fallback, metrics=metrics, error=error,
                                planning_time_s=time.monotonic() - t0)

@@ -192,3 +192,27 @@ def test_buffers_keep_clear_of_blocks_and_slots():
     for k, a in enumerate(found):
         assert not sp.conflicts(a, site)
         assert all(not sp.conflicts(a, b) for b in found[k + 1:])
+
+
+@pytest.mark.parametrize(("k", "density", "seed"), [(2, 0.3, 0), (3, 0.3, 1), (6, 0.3, 2),
+                                                    (8, 0.3, 3), (6, 0.05, 4)])
+def test_random_scenes_of_every_size_plan_and_validate(k, density, seed):
+    from nodes.planner.unlabeled_bench import bench_scene
+
+    scene = bench_scene(k, density, seed, labeled=False)
+    out = plan_goal(scene, CONFIG)
+    assert out.ok, out.error
+    assert validate_plan(out.plan).ok
+    assert out.lower_bound <= len(out.plan.actions) <= 2 * k
+
+
+def test_a_failed_unlabeled_plan_falls_back_to_the_baseline(monkeypatch):
+    from nodes.planner.planner import PlanOutcome
+    from nodes.planner.unlabeled import dispatch
+
+    def fails(scene, config, ucfg, plan_id=None, should_stop=None):
+        return PlanOutcome(None, 0.01, 4, "no plan: made up")
+
+    monkeypatch.setitem(dispatch.UNLABELED, "pebble_graphs", fails)
+    out = plan_goal(random_scene(4, 0.2, seed=1, labeled=False), CONFIG)
+    assert out.ok and out.plan.planner == "assignment_pirs" and out.metrics["fallback"] == 1.0
