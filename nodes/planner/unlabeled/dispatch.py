@@ -24,6 +24,14 @@ Planner = Callable[..., PlanOutcome]
 UNLABELED: dict[str, Planner] = {"pebble_graphs": plan_unlabeled, "assignment": plan_assignment}
 
 
+def check_goal(scene: Scene) -> None:
+    """Refuse a goal no planner handles, naming the field (for the node, on arrival)."""
+    kind = goal_kind(scene)
+    if kind == "unlabeled" and scene.goal.yaw_exact:
+        raise MessageError("yaw_exact", True, "unlabeled goals are met with yaw modulo 90 "
+                           "degrees; yaw_exact is not supported for them")
+
+
 def goal_kind(scene: Scene) -> str:
     """'unlabeled', 'retrieval' (labeled, some blocks left free) or 'labeled'."""
     if scene.goal is None:

@@ -31,3 +31,14 @@ def unfilled_slots(scene: Scene, poses: Iterable[Pose2D], tol_xy: float, tol_yaw
     slots = goal.slot_poses(scene.block_size)
     return [k for k, slot in enumerate(slots)
             if not any(on_slot(p, slot, tol_xy, tol_yaw, goal.yaw_exact) for p in blocks)]
+
+
+def goal_slots(scene: Scene) -> list[tuple[int, Pose2D]]:
+    """(block id, pose) per slot of a labeled goal, (slot index, pose) of an unlabeled one:
+    what plan drawings and markers show."""
+    goal = scene.goal
+    if goal is None:
+        return []
+    if goal.labeled:
+        return sorted(scene.goal_assignment().items())
+    return list(enumerate(goal.slot_poses(scene.block_size)))

@@ -19,3 +19,23 @@ def test_plan_params_are_prefixed_like_the_ros_parameters():
     params = UnlabeledConfig(b=3).to_params()
     assert params["unlabeled.b"] == 3 and params["unlabeled.push_lengths"] == [0.5, 1.0]
     assert all(k.startswith("unlabeled.") for k in params)
+
+
+def test_yaml_group_matches_the_dataclass_and_every_key_has_a_unit_comment():
+    import dataclasses
+
+    import yaml
+
+    from nodes.common.paths import config_path
+    from nodes.planner.cli import load_unlabeled_config
+
+    text = config_path("planner.yaml").read_text()
+    group = yaml.safe_load(text)["/**"]["ros__parameters"]["unlabeled"]
+    defaults = {f.name: f.default for f in dataclasses.fields(UnlabeledConfig)}
+    assert {k: tuple(v) if isinstance(v, list) else v for k, v in group.items()} == defaults
+    lines = text.split("    unlabeled:", 1)[1].splitlines()[1:]
+    assert lines and all("# [" in line for line in lines if line.strip())
+    assert load_unlabeled_config(None, {}) == UnlabeledConfig()
+    assert load_unlabeled_config(None, {"unlabeled.b": 3}).b == 3
+    with pytest.raises(ValueError, match="unlabeled.nope"):
+        load_unlabeled_config(None, {"unlabeled.nope": 1})

@@ -1,0 +1,56 @@
+"""The planner node plans every goal kind: unlabeled, retrieval and (as before) labeled."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from rclpy.parameter import Parameter
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
+
+from msgs_py import BlockSet, Plan, load_scene
+from msgs_py.ros_codecs import block_set_to_markers, to_string_msg
+from nodes.common.paths import config_path
+from nodes.common.qos import LATCHED
+from nodes.common.scenes import random_scene
+from nodes.planner.node import PlannerNode
+from nodes.planner.validator import validate_plan
+from nodes.tools.goal import goal_layout
+
+pytestmark = pytest.mark.ros
+
+
+def plan_for(ros, scene, overrides=()):
+    ros.add(PlannerNode(context=ros.context, parameter_overrides=list(overrides)))
+    goal_pub = ros.publisher("/goal_layout", String, LATCHED)
+    det_pub = ros.publisher("/blocks/detected", MarkerArray)
+    goal_pub.publish(to_string_msg(goal_layout(scene)))
+    ros.wait_for_subscribers(det_pub)
+    det_pub.publish(block_set_to_markers(BlockSet(scene.blocks)))
+    msg = ros.wait_for_message("/plan", String, timeout=60, qos=LATCHED)
+    plan = Plan.from_dict(json.loads(msg.data))
+    assert validate_plan(plan).ok
+    return plan
+
+
+def test_an_unlabeled_goal_is_planned_with_pebble_graphs(ros):
+    plan = plan_for(ros, random_scene(4, 0.2, seed=3, labeled=False))
+    assert plan.planner == "pebble_graphs" and not plan.scene.goal.labeled
+    status = ros.wait_for_message(
+        "/planner/status", String, lambda m: json.loads(m.data)["state"] == "planned",
+        timeout=10, qos=LATCHED)
+    assert json.loads(status.data)["metrics"]["hypernodes"] >= 1
+
+
+def test_the_baseline_is_a_parameter_away(ros):
+    plan = plan_for(ros, random_scene(4, 0.2, seed=3, labeled=False),
+                    [Parameter("unlabeled.method", value="assignment")])
+    assert plan.planner == "assignment_pirs"
+
+
+def test_a_retrieval_goal_names_one_block_and_leaves_the_others_free(ros):
+    scene = load_scene(config_path("scenes/retrieval.yaml"))
+    plan = plan_for(ros, scene)
+    assert plan.planner == "pebble_graphs_retrieval"
+    assert plan.actions[-1].block == 0
