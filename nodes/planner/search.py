@@ -1,0 +1,294 @@
+"""pIRS and CLEAR (Algorithms 1-2 of the paper) over the single-block roadmap.
+
+``Search.run`` tries each block first, as the paper's top level does, and returns the
+concatenated actions and final state, or raises ``PlanningFailure`` naming the block and the
+reason of the failure that got furthest (most blocks placed). Differences from the pseudocode,
+all deliberate:
+
+* Algorithm 1 line 7 recurses on ``O_R \\ o_r`` (the paper's typo ``o_b``, DESIGN §6).
+* A block already on its goal succeeds with an empty action list (the paper's test
+  ``pi != {}`` would reject it).
+* Blocks the goal does not name stay movable obstacles for the whole search.
+* CLEAR tries up to ``clear_attempts`` clearing poses before giving up, and after clearing
+  its own way retries the *same* pose (the path to it was just cleared) rather than a new one.
+* Options (PlannerConfig): clearing poses outside the blocked path and off the goals of
+  blocks not yet placed, clearing straight to the block's own goal first, and trying blocks
+  in an assembly order of the goal layout (``assembly``) before falling back to the others.
+
+The search is deterministic for a seed: one numpy Generator drawn in a fixed order, every
+iteration over sorted ids. It stops with a failure when ``deadline`` passes or a block's
+clearing recursion exceeds ``max_depth``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from msgs_py import Pose2D
+from msgs_py.actions import Action
+from nodes.planner.assembly import assembly_layers, slot_distance_key
+from nodes.planner.context import PlanContext, State, at_pose, nearest_goal_yaw
+from nodes.planner.geometry import Obstacles, block_corners, grasp_finger_corners
+from nodes.planner.roadmap import NoRoute, Route, plan_route, uniform_draw
+
+#: Candidate clearing poses drawn per batch, and batches per relaxation level.
+CLEAR_BATCH = 48
+CLEAR_ROUNDS = 4
+
+
+class PlanningFailure(Exception):
+    """No plan: ``block`` is the block the search could not get further with."""
+
+    def __init__(self, block: int | None, reason: str) -> None:
+        super().__init__(f"block {block}: {reason}" if block is not None else reason)
+        self.block = block
+        self.reason = reason
+
+
+class _Timeout(Exception):
+    pass
+
+
+@dataclass
+class SearchStats:
+    roadmaps: int = 0
+    clears: int = 0
+    backtracks: int = 0
+    placed_max: int = 0
+    failure: tuple[int, int | None, str] = (-1, None, "")  # (progress, block, reason)
+
+    def as_metrics(self) -> dict[str, float]:
+        return {"roadmaps": float(self.roadmaps), "clears": float(self.clears),
+                "backtracks": float(self.backtracks), "placed_max": float(self.placed_max)}
+
+
+@dataclass
+class _Result:
+    actions: list[Action]
+    state: dict[int, Pose2D]
+
+
+@dataclass
+class Search:
+    ctx: PlanContext
+    start: dict[int, Pose2D]
+    goals: dict[int, Pose2D]
+    yaw_exact: bool
+    rng: np.random.Generator
+    deadline: float
+    stats: SearchStats = field(default_factory=SearchStats)
+
+    def __post_init__(self) -> None:
+        self.free = frozenset(self.start) - frozenset(self.goals)
+        cfg = self.ctx.config
+        if cfg.assembly_order:
+            layers, walled = assembly_layers(self.ctx, self.goals)
+            if walled:
+                raise PlanningFailure(walled[0], f"the goal layout walls in the slots of blocks "
+                                      f"{walled}: no order lets them be placed or pushed in")
+            inner = slot_distance_key(self.goals)
+            self.rank = {b: (layers[b], inner[b], b) for b in self.goals}
+        else:
+            self.rank = {b: (0, 0.0, b) for b in self.goals}
+
+    # --- top level --------------------------------------------------------------------------
+    def run(self) -> tuple[list[Action], dict[int, Pose2D]]:
+        targets = frozenset(self.goals)
+        try:
+            for o in self.ordered(targets, self.start):
+                result = self.pirs(o, targets - {o}, self.start, frozenset(), 0)
+                if result is not None:
+                    return result.actions, result.state
+        except _Timeout:
+            _, block, reason = self.stats.failure
+            raise PlanningFailure(
+                block, f"time budget of {self.ctx.config.budget_s:g} s exhausted after placing "
+                f"at most {self.stats.placed_max} of {len(self.goals)} blocks"
+                + (f"; last failure: {reason}" if reason else "")) from None
+        _, block, reason = self.stats.failure
+        raise PlanningFailure(block, reason or "no plan found")
+
+    def ordered(self, blocks: Iterable[int], state: State) -> list[int]:
+        """Blocks already on their goal first (free to fix), then in assembly order."""
+        cfg = self.ctx.config
+
+        def key(b: int):
+            there = at_pose(state[b], self.goals[b], cfg.goal_tolerance_xy,
+                            cfg.goal_tolerance_yaw, self.yaw_exact)
+            return (not there, self.rank[b])
+        return sorted(blocks, key=key)
+
+    # --- helpers ----------------------------------------------------------------------------
+    def check_time(self) -> None:
+        if time.monotonic() > self.deadline:
+            raise _Timeout
+
+    def fail(self, block: int, placed: frozenset[int], reason: str) -> None:
+        if len(placed) > self.stats.failure[0]:
+            self.stats.failure = (len(placed), block, reason)
+
+    def route(self, block: int, state: State, target: Pose2D, movable: frozenset[int]
+              ) -> Route | NoRoute:
+        self.check_time()
+        self.stats.roadmaps += 1
+        return plan_route(self.ctx, block, state, target, movable, self.rng)
+
+    def goal_for(self, block: int, state: State) -> Pose2D:
+        return nearest_goal_yaw(self.goals[block], state[block].theta, self.yaw_exact)
+
+    def at_goal(self, block: int, state: State) -> bool:
+        cfg = self.ctx.config
+        return at_pose(state[block], self.goals[block], cfg.goal_tolerance_xy,
+                       cfg.goal_tolerance_yaw, self.yaw_exact)
+
+    # --- Algorithm 1 ------------------------------------------------------------------------
+    def pirs(self, o: int, remaining: frozenset[int], state: dict[int, Pose2D],
+             placed: frozenset[int], depth: int) -> _Result | None:
+        """Place ``o`` on its goal, then the ``remaining`` goal blocks; None on failure."""
+        self.check_time()
+        if depth > self.ctx.config.max_depth:
+            self.fail(o, placed, f"clearing its way needed more than max_depth="
+                      f"{self.ctx.config.max_depth} nested clears")
+            return None
+        movable = remaining | self.free
+        if self.at_goal(o, state):
+            route: Route | NoRoute = Route((), (), 0.0, state[o])
+        else:
+            route = self.route(o, state, self.goal_for(o, state), movable)
+        if isinstance(route, NoRoute):
+            self.fail(o, placed, f"no way to its goal: {route.reason}")
+            return None
+        if not route.blocked:
+            state2 = {**state, o: route.end}
+            placed2 = placed | {o}
+            self.stats.placed_max = max(self.stats.placed_max, len(placed2))
+            if not remaining:
+                return _Result(list(route.actions), state2)
+            for o_r in self.ordered(remaining, state2):
+                sub = self.pirs(o_r, remaining - {o_r}, state2, placed2, 0)
+                if sub is not None:
+                    return _Result([*route.actions, *sub.actions], sub.state)
+                self.stats.backtracks += 1
+            return None
+        o_b = route.blocked[0]
+        cleared = self.clear(o_b, movable - {o_b}, state, placed, route.region, depth + 1)
+        if cleared is None:
+            self.fail(o, placed, f"block {o_b} stands in its way and could not be cleared")
+            return None
+        sub = self.pirs(o, remaining, cleared.state, placed, depth + 1)
+        if sub is None:
+            return None
+        return _Result([*cleared.actions, *sub.actions], sub.state)
+
+    # --- Algorithm 2 ------------------------------------------------------------------------
+    def clear(self, o: int, movable: frozenset[int], state: dict[int, Pose2D],
+              placed: frozenset[int], region: np.ndarray, depth: int,
+              target: Pose2D | None = None) -> _Result | None:
+        """Move ``o`` out of the way (of ``region``), clearing its own way recursively."""
+        self.check_time()
+        cfg = self.ctx.config
+        if depth > cfg.max_depth:
+            self.fail(o, placed, f"clearing it needed more than max_depth={cfg.max_depth} "
+                      "nested clears")
+            return None
+        self.stats.clears += 1
+        tries: list[tuple[Pose2D, bool]] = []
+        if target is not None:
+            tries = [(target, True)]
+        else:
+            goal = self.clear_goal(o, state, placed, region)
+            if goal is not None:
+                tries.append((goal, False))
+            tries += [(p, True) for p in self.clear_poses(o, state, placed, region,
+                                                          cfg.clear_attempts)]
+        if not tries:
+            self.fail(o, placed, "no free pose to clear it to")
+        for pose, recurse in tries:
+            route = self.route(o, state, pose, movable)
+            if isinstance(route, NoRoute):
+                self.fail(o, placed, f"cannot be cleared: {route.reason}")
+                continue
+            if not route.blocked:
+                return _Result(list(route.actions), {**state, o: route.end})
+            if not recurse:
+                continue
+            o_b = route.blocked[0]
+            sub = self.clear(o_b, movable - {o_b}, state, placed,
+                             np.concatenate([region, route.region]), depth + 1)
+            if sub is None:
+                continue
+            again = self.clear(o, movable, sub.state, placed, region, depth + 1, target=pose)
+            if again is not None:
+                return _Result([*sub.actions, *again.actions], again.state)
+        return None
+
+    def clear_goal(self, o: int, state: State, placed: frozenset[int], region: np.ndarray
+                   ) -> Pose2D | None:
+        """``o``'s own goal as a clearing pose, when that option is on and it is out of the way."""
+        if not self.ctx.config.clear_goal_first or o not in self.goals:
+            return None
+        goal = self.goal_for(o, state)
+        geom = self.ctx.geom
+        foot = block_corners(goal.x, goal.y, goal.theta, geom.block_size)[None, None]
+        others = self.ctx.obstacles(state, exclude=(o,), movable=())
+        if others.query(foot)[0][0]:
+            return None
+        forbid = self.forbidden(o, placed, region, with_goals=False)
+        if forbid is not None and forbid.query(foot)[0][0]:
+            return None
+        return goal
+
+    def forbidden(self, o: int, placed: frozenset[int], region: np.ndarray, with_goals: bool
+                  ) -> Obstacles | None:
+        cfg, geom = self.ctx.config, self.ctx.geom
+        parts = []
+        if cfg.clear_outside_path and len(region):
+            parts.append(region)
+        if with_goals and cfg.clear_off_goals:
+            slots = [self.goals[b] for b in sorted(self.goals) if b not in placed and b != o]
+            if slots:
+                parts.append(block_corners([p.x for p in slots], [p.y for p in slots],
+                                           [p.theta for p in slots], geom.block_size))
+        if not parts:
+            return None
+        corners = np.concatenate(parts).reshape(-1, 4, 2)
+        return Obstacles(np.zeros(len(corners), dtype=np.int64), corners,
+                         [False] * len(corners), {})
+
+    def clear_poses(self, o: int, state: State, placed: frozenset[int], region: np.ndarray,
+                    count: int) -> list[Pose2D]:
+        """Up to ``count`` poses for ``o`` clear of every block, where some grasp can set it
+        down; outside the blocked path / off pending goals when those options are on (each
+        dropped in turn if nothing fits)."""
+        ctx, cfg = self.ctx, self.ctx.config
+        others = ctx.obstacles(state, exclude=(o,), movable=())
+        levels = [self.forbidden(o, placed, region, with_goals=True),
+                  self.forbidden(o, placed, region, with_goals=False), None]
+        draw = uniform_draw(ctx)
+        here = state[o]
+        for forbid in levels:
+            found: list[np.ndarray] = []
+            for _ in range(CLEAR_ROUNDS):
+                cand = draw(self.rng, CLEAR_BATCH)
+                foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
+                ok = ctx.workspace.contains(foot) & ~others.query(foot[:, None])[0]
+                if forbid is not None:
+                    ok &= ~forbid.query(foot[:, None])[0]
+                fingers = grasp_finger_corners(ctx.geom, cand[:, 0, None], cand[:, 1, None],
+                                               cand[:, 2, None], np.arange(2))
+                f_hit = others.query(fingers.reshape(-1, 2, 4, 2))[0].reshape(-1, 2)
+                ok &= (~f_hit & ctx.table.contains(fingers).all(-1)).any(-1)
+                found.append(cand[ok])
+                if sum(len(f) for f in found) >= count and not cfg.distance_cost:
+                    break
+            good = np.concatenate(found)
+            if len(good):
+                if cfg.distance_cost:
+                    d = np.hypot(good[:, 0] - here.x, good[:, 1] - here.y)
+                    good = good[np.argsort(d, kind="stable")]
+                return [Pose2D(*row) for row in good[:count]]
+        return []
