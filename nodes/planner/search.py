@@ -23,14 +23,14 @@ clearing recursion exceeds ``max_depth``.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from msgs_py import Pose2D
 from msgs_py.actions import Action
-from nodes.planner.assembly import assembly_layers, slot_distance_key
+from nodes.planner.assembly import Assembly
 from nodes.planner.context import PlanContext, State, at_pose, nearest_goal_yaw
 from nodes.planner.geometry import Obstacles, block_corners, grasp_finger_corners
 from nodes.planner.roadmap import NoRoute, Route, plan_route, uniform_draw
@@ -85,21 +85,19 @@ class Search:
     def __post_init__(self) -> None:
         self.free = frozenset(self.start) - frozenset(self.goals)
         cfg = self.ctx.config
-        if cfg.assembly_order:
-            layers, walled = assembly_layers(self.ctx, self.goals)
-            if walled:
-                raise PlanningFailure(walled[0], f"the goal layout walls in the slots of blocks "
-                                      f"{walled}: no order lets them be placed or pushed in")
-            inner = slot_distance_key(self.goals)
-            self.rank = {b: (layers[b], inner[b], b) for b in self.goals}
-        else:
-            self.rank = {b: (0, 0.0, b) for b in self.goals}
+        self.assembly = Assembly(self.ctx, self.goals)
+        walled = self.assembly.stuck(0)
+        if walled:
+            raise PlanningFailure(walled[0], f"the goal layout walls in the slots of blocks "
+                                  f"{walled}: in no order can they be set down or pushed in")
+        order = self.assembly.order() if cfg.assembly_order else sorted(self.goals)
+        self.rank = {b: k for k, b in enumerate(order)}
 
     # --- top level --------------------------------------------------------------------------
     def run(self) -> tuple[list[Action], dict[int, Pose2D]]:
         targets = frozenset(self.goals)
         try:
-            for o in self.ordered(targets, self.start):
+            for o in self.ordered(targets, self.start, frozenset()):
                 result = self.pirs(o, targets - {o}, self.start, frozenset(), 0)
                 if result is not None:
                     return result.actions, result.state
@@ -112,15 +110,29 @@ class Search:
         _, block, reason = self.stats.failure
         raise PlanningFailure(block, reason or "no plan found")
 
-    def ordered(self, blocks: Iterable[int], state: State) -> list[int]:
-        """Blocks already on their goal first (free to fix), then in assembly order."""
-        cfg = self.ctx.config
+    def ordered(self, blocks: Iterable[int], state: State, placed: frozenset[int]
+                ) -> Iterator[int]:
+        """Blocks to place next, by estimated actions: now (0 on its goal already, 1 for a
+        pick-and-place, 2 for pick-and-place + push) plus the pushes the rest of the layout
+        then needs; ties in assembly order. With ``assembly_order`` off: by id (the paper). A block whose placing
+        would wall in another goal slot is deferred to the end (kept: the loop stays complete)."""
+        if not self.ctx.config.assembly_order:
+            yield from sorted(blocks, key=lambda b: (not self.at_goal(b, state), b))
+            return
+        filled = self.assembly.mask(placed)
 
-        def key(b: int):
-            there = at_pose(state[b], self.goals[b], cfg.goal_tolerance_xy,
-                            cfg.goal_tolerance_yaw, self.yaw_exact)
-            return (not there, self.rank[b])
-        return sorted(blocks, key=key)
+        def estimate(b: int) -> tuple[int, int]:
+            now = 0 if self.at_goal(b, state) else (1 if self.assembly.placeable(b, filled)
+                                                    else 2)
+            return now + self.assembly.future_pushes(filled | self.assembly.bit[b]), self.rank[b]
+        blocks = sorted(blocks, key=estimate)
+        deferred = []
+        for b in blocks:
+            if self.assembly.feasible(filled | self.assembly.bit[b]):
+                yield b
+            else:
+                deferred.append(b)
+        yield from deferred
 
     # --- helpers ----------------------------------------------------------------------------
     def check_time(self) -> None:
@@ -146,8 +158,29 @@ class Search:
                        cfg.goal_tolerance_yaw, self.yaw_exact)
 
     # --- Algorithm 1 ------------------------------------------------------------------------
+    def probed(self, remaining: frozenset[int], state: dict[int, Pose2D],
+               placed: frozenset[int]) -> Iterator[tuple[int, Route | NoRoute | None]]:
+        """``ordered`` candidates, but among the first ``probe`` of them one whose roadmap
+        route is already free of movable blocks goes first (it needs no clearing); the
+        routes found are handed on so they are not planned twice."""
+        order = list(self.ordered(remaining, state, placed))
+        k = min(self.ctx.config.probe, len(order))
+        known: dict[int, Route | NoRoute] = {}
+        for b in order[:k]:
+            if self.at_goal(b, state):
+                break
+            route = self.route(b, state, self.goal_for(b, state), remaining - {b} | self.free)
+            known[b] = route
+            if isinstance(route, Route) and not route.blocked:
+                order.remove(b)
+                order.insert(0, b)
+                break
+        for b in order:
+            yield b, known.pop(b, None)
+
     def pirs(self, o: int, remaining: frozenset[int], state: dict[int, Pose2D],
-             placed: frozenset[int], depth: int) -> _Result | None:
+             placed: frozenset[int], depth: int, known: Route | NoRoute | None = None
+             ) -> _Result | None:
         """Place ``o`` on its goal, then the ``remaining`` goal blocks; None on failure."""
         self.check_time()
         if depth > self.ctx.config.max_depth:
@@ -157,6 +190,8 @@ class Search:
         movable = remaining | self.free
         if self.at_goal(o, state):
             route: Route | NoRoute = Route((), (), 0.0, state[o])
+        elif known is not None:
+            route = known
         else:
             route = self.route(o, state, self.goal_for(o, state), movable)
         if isinstance(route, NoRoute):
@@ -168,8 +203,8 @@ class Search:
             self.stats.placed_max = max(self.stats.placed_max, len(placed2))
             if not remaining:
                 return _Result(list(route.actions), state2)
-            for o_r in self.ordered(remaining, state2):
-                sub = self.pirs(o_r, remaining - {o_r}, state2, placed2, 0)
+            for o_r, known in self.probed(remaining, state2, placed2):
+                sub = self.pirs(o_r, remaining - {o_r}, state2, placed2, 0, known)
                 if sub is not None:
                     return _Result([*route.actions, *sub.actions], sub.state)
                 self.stats.backtracks += 1
@@ -242,8 +277,10 @@ class Search:
             return None
         return goal
 
-    def forbidden(self, o: int, placed: frozenset[int], region: np.ndarray, with_goals: bool
-                  ) -> Obstacles | None:
+    def forbidden(self, o: int, placed: frozenset[int], region: np.ndarray, with_goals: bool,
+                  margin: float = 0.0) -> Obstacles | None:
+        """Where a clearing pose must not go: the blocked path, and pending goal slots grown
+        by ``margin`` (room for the fingers and push lanes around them)."""
         cfg, geom = self.ctx.config, self.ctx.geom
         parts = []
         if cfg.clear_outside_path and len(region):
@@ -252,7 +289,8 @@ class Search:
             slots = [self.goals[b] for b in sorted(self.goals) if b not in placed and b != o]
             if slots:
                 parts.append(block_corners([p.x for p in slots], [p.y for p in slots],
-                                           [p.theta for p in slots], geom.block_size))
+                                           [p.theta for p in slots],
+                                           geom.block_size + 2.0 * margin))
         if not parts:
             return None
         corners = np.concatenate(parts).reshape(-1, 4, 2)
@@ -266,8 +304,9 @@ class Search:
         dropped in turn if nothing fits)."""
         ctx, cfg = self.ctx, self.ctx.config
         others = ctx.obstacles(state, exclude=(o,), movable=())
-        levels = [self.forbidden(o, placed, region, with_goals=True),
-                  self.forbidden(o, placed, region, with_goals=False), None]
+        levels = [self.forbidden(o, placed, region, True, cfg.clear_goal_margin),
+                  self.forbidden(o, placed, region, True),
+                  self.forbidden(o, placed, region, False), None]
         draw = uniform_draw(ctx)
         here = state[o]
         for forbid in levels:
