@@ -101,11 +101,15 @@ def line_draw(ctx: PlanContext, anchor: Pose2D, towards: bool):
 
 
 def plan_route(ctx: PlanContext, block: int, state: State, target: Pose2D,
-               movable: frozenset[int], rng: np.random.Generator) -> Route | NoRoute:
+               movable: frozenset[int], rng: np.random.Generator, exact_yaw: bool = False
+               ) -> Route | NoRoute:
     """Cheapest roadmap path moving ``block`` from its pose in ``state`` to ``target``.
 
     Blocks in ``movable`` (O_R) may be hit (counted in Nc, returned as O_b); all other blocks
-    are fixed. The target's yaw is taken as given (the caller picks the 90-degree class).
+    are fixed. Unless ``exact_yaw``, the target yaw + 90 degrees (same footprint) is a second
+    target node: it lets the grasp that is free at the start set the block down along the
+    other axis too, so no regrasp is ever needed just to change grasps (ties go to
+    ``target``'s own yaw).
     """
     cfg = ctx.config
     start = state[block]
@@ -114,17 +118,22 @@ def plan_route(ctx: PlanContext, block: int, state: State, target: Pose2D,
     n_goal = int(np.sum(kinds < cfg.eps))
     n_start = int(np.sum((kinds >= cfg.eps) & (kinds < cfg.eps + cfg.eps_start)))
     n_uniform = cfg.n_samples - n_goal - n_start
+    ends = [[target.x, target.y, target.theta]]
+    if not exact_yaw:
+        ends.append([target.x, target.y, float(Pose2D(0, 0, target.theta + 0.5 * math.pi).theta)])
     nodes = np.concatenate([
-        np.array([[start.x, start.y, start.theta], [target.x, target.y, target.theta]]),
+        np.array([[start.x, start.y, start.theta], *ends]),
         sample_poses(ctx, obstacles, n_goal, rng, line_draw(ctx, target, towards=True)),
         sample_poses(ctx, obstacles, n_start, rng, line_draw(ctx, start, towards=False)),
         sample_poses(ctx, obstacles, n_uniform, rng, uniform_draw(ctx)),
     ])
     graph = _build_graph(ctx, nodes, obstacles)
-    dist, prev = _dijkstra(graph.weight, source=0, target=1)
-    if not math.isfinite(dist[1]):
-        return _diagnose(ctx, graph, obstacles, nodes)
-    return _route(ctx, block, graph, nodes, prev, float(dist[1]))
+    n_ends = len(ends)
+    dist, prev = _dijkstra(graph.weight, source=0, targets=n_ends)
+    end = 1 + int(np.argmin(dist[1:1 + n_ends]))
+    if not math.isfinite(dist[end]):
+        return _diagnose(ctx, graph, obstacles, nodes, n_ends)
+    return _route(ctx, block, graph, nodes, prev, end, float(dist[end]))
 
 
 @dataclass
@@ -206,8 +215,9 @@ def _add_pushes(ctx: PlanContext, graph: _Graph, nodes: np.ndarray, obstacles: O
             graph.pushes[(a, b)] = (arr[n, 2], arr[n, 3], arr[n, 4])
 
 
-def _dijkstra(weight: np.ndarray, source: int, target: int) -> tuple[np.ndarray, np.ndarray]:
-    """Dense Dijkstra (O(M^2) numpy); ties go to the lowest node index (deterministic)."""
+def _dijkstra(weight: np.ndarray, source: int, targets: int) -> tuple[np.ndarray, np.ndarray]:
+    """Dense Dijkstra (O(M^2) numpy) until nodes 1..targets are settled; ties go to the
+    lowest node index (deterministic)."""
     m = len(weight)
     dist = np.full(m, np.inf)
     prev = np.full(m, -1, dtype=np.int64)
@@ -219,7 +229,7 @@ def _dijkstra(weight: np.ndarray, source: int, target: int) -> tuple[np.ndarray,
         if not math.isfinite(open_dist[u]):
             break
         done[u] = True
-        if u == target:
+        if done[1:1 + targets].all():
             break
         alt = dist[u] + weight[u]
         better = (alt < dist) & ~done
@@ -229,8 +239,8 @@ def _dijkstra(weight: np.ndarray, source: int, target: int) -> tuple[np.ndarray,
 
 
 def _route(ctx: PlanContext, block: int, graph: _Graph, nodes: np.ndarray, prev: np.ndarray,
-           cost: float) -> Route:
-    path = [1]
+           end: int, cost: float) -> Route:
+    path = [end]
     while path[-1] != 0:
         path.append(int(prev[path[-1]]))
     path.reverse()
@@ -262,8 +272,8 @@ def _route(ctx: PlanContext, block: int, graph: _Graph, nodes: np.ndarray, prev:
     return Route(tuple(actions), tuple(blocked), cost, pose, np.concatenate(region))
 
 
-def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.ndarray
-              ) -> NoRoute:
+def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.ndarray,
+              n_ends: int) -> NoRoute:
     """Name the likeliest reason no path exists: the target or the start is walled in."""
     geom = ctx.geom
     tx, ty, tt = nodes[1]
@@ -273,7 +283,7 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
     if graph.block_fixed[1]:
         ids = obstacles.fixed_ids_hit(target_block[:, None])
         return NoRoute(f"its target pose overlaps placed block(s) {ids}", tuple(ids))
-    if not np.isfinite(graph.weight[:, 1]).any():
+    if not np.isfinite(graph.weight[:, 1:1 + n_ends]).any():
         fingers = grasp_finger_corners(geom, tx, ty, tt, np.arange(2))
         ids = obstacles.fixed_ids_hit(fingers.reshape(1, -1, 4, 2))
         return NoRoute(f"no grasp or push reaches its target: fingers hit placed block(s) {ids} "
@@ -284,4 +294,5 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
         ids = obstacles.fixed_ids_hit(fingers.reshape(1, -1, 4, 2))
         return NoRoute(f"it can be neither grasped nor pushed where it stands: fingers hit placed "
                        f"block(s) {ids} or leave the table", tuple(ids))
-    return NoRoute(f"no roadmap path from its pose to the target among {len(nodes) - 2} samples")
+    return NoRoute("no roadmap path from its pose to the target among "
+                   f"{len(nodes) - 1 - n_ends} samples")

@@ -147,7 +147,8 @@ class Search:
               ) -> Route | NoRoute:
         self.check_time()
         self.stats.roadmaps += 1
-        return plan_route(self.ctx, block, state, target, movable, self.rng)
+        exact = self.yaw_exact and block in self.goals and target == self.goals[block]
+        return plan_route(self.ctx, block, state, target, movable, self.rng, exact)
 
     def goal_for(self, block: int, state: State) -> Pose2D:
         return nearest_goal_yaw(self.goals[block], state[block].theta, self.yaw_exact)
@@ -266,6 +267,13 @@ class Search:
         """``o``'s own goal as a clearing pose, when that option is on and it is out of the way."""
         if not self.ctx.config.clear_goal_first or o not in self.goals:
             return None
+        if self.ctx.config.assembly_order:
+            # only where fixing it next costs no extra pushes, else it is just in the way later
+            asm = self.assembly
+            filled = asm.mask(placed)
+            with_o = filled | asm.bit[o]
+            if not asm.feasible(with_o) or asm.future_pushes(with_o) > asm.future_pushes(filled):
+                return None
         goal = self.goal_for(o, state)
         geom = self.ctx.geom
         foot = block_corners(goal.x, goal.y, goal.theta, geom.block_size)[None, None]
@@ -309,6 +317,13 @@ class Search:
                   self.forbidden(o, placed, region, False), None]
         draw = uniform_draw(ctx)
         here = state[o]
+        # grasps that can pick o where it stands without touching anything: a clearing pose
+        # that one of them can set down is reached in one action (no regrasp)
+        fingers_here = grasp_finger_corners(ctx.geom, here.x, here.y, here.theta, np.arange(2))
+        hit_here = others.query(fingers_here)[0]
+        usable = ~hit_here & ctx.table.contains(fingers_here).all(-1)
+        if not usable.any():
+            usable[:] = True
         for forbid in levels:
             found: list[np.ndarray] = []
             for _ in range(CLEAR_ROUNDS):
@@ -320,7 +335,7 @@ class Search:
                 fingers = grasp_finger_corners(ctx.geom, cand[:, 0, None], cand[:, 1, None],
                                                cand[:, 2, None], np.arange(2))
                 f_hit = others.query(fingers.reshape(-1, 2, 4, 2))[0].reshape(-1, 2)
-                ok &= (~f_hit & ctx.table.contains(fingers).all(-1)).any(-1)
+                ok &= (~f_hit & ctx.table.contains(fingers).all(-1) & usable).any(-1)
                 found.append(cand[ok])
                 if sum(len(f) for f in found) >= count and not cfg.distance_cost:
                     break
