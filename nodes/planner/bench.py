@@ -34,6 +34,7 @@ VARIANTS = {
     "no_clear_off_goals": {"clear_off_goals": False},
     "no_clear_goal_first": {"clear_goal_first": False},
     "no_assembly_order": {"assembly_order": False},
+    "a3_low": {"a3": 0.5},
 }
 
 
