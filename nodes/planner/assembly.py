@@ -30,8 +30,9 @@ from nodes.planner.geometry import (
     push_corners,
 )
 
-#: Push lengths (in block sizes) tried when testing whether a slot can be pushed into.
-PUSH_STEPS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0)
+#: Push lengths (in block sizes) tried when testing whether a slot can be pushed into (those
+#: up to the roadmap's push_max_distance).
+PUSH_STEPS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0)
 
 
 def _masks(obstacles: Obstacles, corners: np.ndarray) -> list[int]:
@@ -60,6 +61,7 @@ class Assembly:
         f_in = ctx.table.contains(fingers).all(-1)  # (n, 2)
         # pushes into the slot: from q = slot - d * L along each face normal
         steps = np.array(PUSH_STEPS) * geom.block_size
+        steps = steps[steps <= ctx.config.push_max_distance + 1e-9]
         d = face_normals(th)  # (n, 4, 2)
         d = np.repeat(d, len(steps), axis=1)  # (n, P, 2)
         length = np.tile(steps, 4)[None, :].repeat(n, 0)  # (n, P)

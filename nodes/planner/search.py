@@ -113,26 +113,70 @@ class Search:
     def ordered(self, blocks: Iterable[int], state: State, placed: frozenset[int]
                 ) -> Iterator[int]:
         """Blocks to place next, by estimated actions: now (0 on its goal already, 1 for a
-        pick-and-place, 2 for pick-and-place + push) plus the pushes the rest of the layout
-        then needs; ties in assembly order. With ``assembly_order`` off: by id (the paper). A block whose placing
-        would wall in another goal slot is deferred to the end (kept: the loop stays complete)."""
+        pick-and-place, 2 for pick-and-place + push) minus one for a block standing on another
+        pending slot (placing it now saves clearing it), plus the pushes the rest of the layout
+        then needs; ties in assembly order. A block whose placing would wall in another goal
+        slot (``Assembly.feasible``) is not tried at all. With ``assembly_order`` off: by id,
+        every block (the paper)."""
         if not self.ctx.config.assembly_order:
             yield from sorted(blocks, key=lambda b: (not self.at_goal(b, state), b))
             return
         filled = self.assembly.mask(placed)
 
+        in_way = self.in_the_way(blocks, state, placed)
+
         def estimate(b: int) -> tuple[int, int]:
             now = 0 if self.at_goal(b, state) else (1 if self.assembly.placeable(b, filled)
                                                     else 2)
-            return now + self.assembly.future_pushes(filled | self.assembly.bit[b]), self.rank[b]
+            # a block standing on another pending slot must move anyway: placing it now
+            # saves the action that would clear it
+            saved = 1 if b in in_way else 0
+            return (now - saved + self.assembly.future_pushes(filled | self.assembly.bit[b]),
+                    self.rank[b])
         blocks = sorted(blocks, key=estimate)
-        deferred = []
         for b in blocks:
             if self.assembly.feasible(filled | self.assembly.bit[b]):
                 yield b
-            else:
-                deferred.append(b)
-        yield from deferred
+
+    def wedged(self, o: int, end: Pose2D, state: State, placed: frozenset[int],
+               movable: frozenset[int]) -> list[int]:
+        """Movable blocks whose last free grasp ``o`` standing at ``end`` would take away
+        (every grasp's fingers would land on a block): two such blocks can hem each other in
+        for good once their other neighbours are placed, so they are cleared first."""
+        cand = sorted(movable)
+        if not cand:
+            return []
+        geom = self.ctx.geom
+        after = {**state, o: end}
+        mine = self.ctx.obstacles({o: end}, exclude=(), movable=())
+        out = []
+        for b in cand:
+            p = state[b]
+            fingers = grasp_finger_corners(geom, p.x, p.y, p.theta, np.arange(2))
+            others = self.ctx.obstacles(after, exclude=(b,), movable=())
+            hit = others.query(fingers)[0] | ~self.ctx.table.contains(fingers).all(-1)
+            if hit.all() and mine.query(fingers)[0].any():
+                out.append(b)
+        return out
+
+    def in_the_way(self, blocks: Iterable[int], state: State, placed: frozenset[int]
+                   ) -> set[int]:
+        """Blocks of ``blocks`` (not on their goal) overlapping another pending goal slot."""
+        pending = [b for b in sorted(self.goals) if b not in placed]
+        cand = [b for b in sorted(blocks) if not self.at_goal(b, state)]
+        if not cand or len(pending) < 2:
+            return set()
+        geom = self.ctx.geom
+        slots = [self.goals[b] for b in pending]
+        corners = block_corners([p.x for p in slots], [p.y for p in slots],
+                                [p.theta for p in slots], geom.block_size)
+        bits = {b: k for k, b in enumerate(pending)}
+        tree = Obstacles(pending, corners, [True] * len(pending), bits)
+        poses = [state[b] for b in cand]
+        foot = block_corners([p.x for p in poses], [p.y for p in poses],
+                             [p.theta for p in poses], geom.block_size)
+        _, mask = tree.query(foot[:, None])
+        return {b for b, m in zip(cand, mask, strict=True) if int(m) & ~(1 << bits[b])}
 
     # --- helpers ----------------------------------------------------------------------------
     def check_time(self) -> None:
@@ -198,6 +242,10 @@ class Search:
         if isinstance(route, NoRoute):
             self.fail(o, placed, f"no way to its goal: {route.reason}")
             return None
+        if not route.blocked:
+            wedged = self.wedged(o, route.end, state, placed, movable)
+            if wedged:  # clear it while it can still be grasped
+                route = Route(route.actions, (wedged[0],), route.cost, route.end, route.region)
         if not route.blocked:
             state2 = {**state, o: route.end}
             placed2 = placed | {o}
