@@ -12,12 +12,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.patches import Polygon as PatchPolygon  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
+import matplotlib.pyplot as plt
+from matplotlib.patches import Polygon as PatchPolygon
+from matplotlib.patches import Rectangle
 
-from msgs_py import Plan, Push, Scene  # noqa: E402
-from msgs_py.footprint import square_corners  # noqa: E402
+from msgs_py import Plan, Push, Scene
+from msgs_py.footprint import square_corners
 
 PICK_COLOR = "tab:blue"
 PUSH_COLOR = "tab:orange"

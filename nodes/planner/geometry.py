@@ -66,7 +66,7 @@ class Bounds:
                       self.y_min - margin, self.y_max + margin)
 
     def contains(self, corners: np.ndarray) -> np.ndarray:
-        """True where every corner of ``corners[..., 4, 2]`` lies inside (shape corners[..., 0, 0])."""
+        """Whether all four corners of each ``corners[..., 4, 2]`` shape lie inside."""
         x, y = corners[..., 0], corners[..., 1]
         ok = ((x >= self.x_min - INSIDE_TOL) & (x <= self.x_max + INSIDE_TOL)
               & (y >= self.y_min - INSIDE_TOL) & (y <= self.y_max + INSIDE_TOL))

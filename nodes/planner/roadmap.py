@@ -13,6 +13,7 @@ Edge cost: ``a1*[pick_place] + a2*[push] + a3*Nc`` and, with ``distance_cost``,
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -249,7 +250,7 @@ def _route(ctx: PlanContext, block: int, graph: _Graph, nodes: np.ndarray, prev:
     region: list[np.ndarray] = []
     pose = Pose2D(*nodes[0])
     geom = ctx.geom
-    for a, b in zip(path[:-1], path[1:], strict=True):
+    for a, b in itertools.pairwise(path):
         kind = int(graph.kind[a, b])
         if kind == 2:
             dx, dy, length = graph.pushes[(a, b)]

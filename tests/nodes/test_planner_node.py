@@ -12,10 +12,10 @@ from visualization_msgs.msg import MarkerArray
 from msgs_py import BlockSet, Plan
 from msgs_py.ros_codecs import block_set_to_markers, to_string_msg
 from nodes.common.qos import LATCHED
+from nodes.common.scenes import random_scene
 from nodes.planner.node import PlannerNode
 from nodes.planner.validator import validate_plan
 from nodes.tools.goal import goal_layout
-from nodes.common.scenes import random_scene
 
 pytestmark = pytest.mark.ros
 

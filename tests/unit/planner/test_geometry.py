@@ -70,7 +70,7 @@ def test_push_sweeps_block_and_two_fingertips_behind_the_rear_face():
         assert x0 == pytest.approx(-back)  # where the tips land, behind the face
         assert x1 == pytest.approx(length - S / 2)  # the tips end on the rear face at p2
         assert y1 - y0 == pytest.approx(GEOM.finger_thickness)
-        assert -S / 2 <= y0 and y1 <= S / 2  # both tips on the face: two-point contact
+        assert y0 >= -S / 2 and y1 <= S / 2  # both tips on the face: two-point contact
     assert pad_a.distance(pad_b) == pytest.approx(GEOM.push_opening)
 
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from msgs_py import BlockPose, Goal, GoalSlot, Plan, PickPlace, Push, Scene, Workspace
+from msgs_py import BlockPose, Goal, GoalSlot, PickPlace, Plan, Push, Scene, Workspace
 from nodes.common.scenes import random_scene
 from nodes.planner.config import PlannerConfig
 from nodes.planner.planner import plan_scene
