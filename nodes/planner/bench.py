@@ -47,6 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--variants", nargs="+", choices=sorted(VARIANTS), default=["default"],
                         help="option sets to run (default: the configured defaults)")
     parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--gap", type=float, default=0.003,
+                        help="gap between goal grid neighbours, m (3 mm: room for perception "
+                        "error, so a block pushed in between two others does not rub them)")
     for f in dataclasses.fields(PlannerConfig):
         if f.type in ("bool", bool):
             parser.add_argument(f"--{f.name.replace('_', '-')}", choices=["on", "off"],
@@ -57,10 +60,11 @@ def _percentile(values: list[float], q: float) -> float:
     return float(np.percentile(values, q)) if values else float("nan")
 
 
-def run_set(n: int, density: float, seeds: range, config: PlannerConfig) -> dict[str, Any]:
+def run_set(n: int, density: float, seeds: range, config: PlannerConfig, gap: float = 0.003
+            ) -> dict[str, Any]:
     times, actions, ratios, clears, failures = [], [], [], [], []
     for seed in seeds:
-        scene = random_scene(n, density, seed)
+        scene = random_scene(n, density, seed, gap=gap)
         out = plan_scene(scene, dataclasses.replace(config, seed=seed))
         times.append(out.planning_time_s)
         if out.ok:
@@ -71,7 +75,7 @@ def run_set(n: int, density: float, seeds: range, config: PlannerConfig) -> dict
             failures.append({"seed": seed, "error": out.error})
     med = statistics.median
     return {
-        "n_blocks": n, "density": density, "seeds": len(seeds),
+        "n_blocks": n, "density": density, "seeds": len(seeds), "budget_s": config.budget_s,
         "success_rate": len(actions) / len(seeds),
         "time_median_s": med(times) if times else float("nan"),
         "time_p90_s": _percentile(times, 90),
@@ -93,7 +97,7 @@ def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
         config = PlannerConfig(budget_s=opts.budget, **{**VARIANTS[variant], **overrides})
         for n in sizes:
             for name in opts.density:
-                row = run_set(n, DENSITIES[name], seeds, config)
+                row = run_set(n, DENSITIES[name], seeds, config, opts.gap)
                 row["variant"] = variant
                 rows.append(row)
                 print(f"  {variant} n={n} {name}: success {row['success_rate']:.2f}, "
