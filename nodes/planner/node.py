@@ -54,6 +54,7 @@ class PlannerNode(Node):
         self._detection: BlockSet | None = None
         self._auto_pending = True  # plan once by itself for each new goal layout
         self._worker: threading.Thread | None = None
+        self._stop = threading.Event()  # set on shutdown: the worker gives up planning
         self.plan_pub = self.create_publisher(String, "/plan", LATCHED)
         self.markers_pub = self.create_publisher(MarkerArray, "/plan/markers", LATCHED)
         self.status_pub = self.create_publisher(String, "/planner/status", LATCHED)
@@ -123,14 +124,30 @@ class PlannerNode(Node):
             self._worker.start()
         return True, "planning started"
 
+    def destroy_node(self) -> None:
+        self._stop.set()
+        worker = self._worker
+        if worker is not None and worker is not threading.current_thread():
+            worker.join(timeout=5.0)
+        super().destroy_node()
+
     def _plan(self, scene: Scene) -> None:
+        try:
+            self._plan_and_publish(scene)
+        except Exception as err:  # never let the worker die silently (e.g. during shutdown)
+            if not self._stop.is_set():
+                self.get_logger().error(f"planner worker failed: {type(err).__name__}: {err}")
+
+    def _plan_and_publish(self, scene: Scene) -> None:
         plan_id = uuid.uuid4().hex[:12]
         self.status(PlannerStatus("planning", plan_id=plan_id))
         try:
-            outcome = plan_scene(scene, self.config, plan_id)
+            outcome = plan_scene(scene, self.config, plan_id, should_stop=self._stop.is_set)
         except (MessageError, ValueError) as err:
             self.get_logger().error(f"cannot plan: {err}")
             self.status(PlannerStatus("failed", plan_id=plan_id, last_error=str(err)))
+            return
+        if self._stop.is_set():
             return
         if not outcome.ok:
             self.get_logger().error(f"no plan in {outcome.planning_time_s:.2f} s: "

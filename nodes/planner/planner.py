@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -68,8 +69,10 @@ def check_scene(scene: Scene) -> None:
                            "supported by this planner yet (issue 7)")
 
 
-def plan_scene(scene: Scene, config: PlannerConfig, plan_id: str | None = None) -> PlanOutcome:
-    """Plan ``scene`` (start blocks + labeled goal) with ``config``.
+def plan_scene(scene: Scene, config: PlannerConfig, plan_id: str | None = None,
+               should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
+    """Plan ``scene`` (start blocks + labeled goal) with ``config``; ``should_stop`` (polled
+    between roadmap queries) ends the search early as a failure.
 
     Raises:
         MessageError: no goal, or an unlabeled goal.
@@ -85,6 +88,8 @@ def plan_scene(scene: Scene, config: PlannerConfig, plan_id: str | None = None) 
     try:
         search = Search(ctx, start, goals, scene.goal.yaw_exact,
                         np.random.default_rng(config.seed), t0 + config.budget_s)
+        if should_stop is not None:
+            search.should_stop = should_stop
         actions, _ = search.run()
         metrics.update(search.stats.as_metrics())
     except PlanningFailure as failure:

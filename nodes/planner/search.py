@@ -23,7 +23,7 @@ clearing recursion exceeds ``max_depth``.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,6 +81,7 @@ class Search:
     rng: np.random.Generator
     deadline: float
     stats: SearchStats = field(default_factory=SearchStats)
+    should_stop: Callable[[], bool] = lambda: False  # external cancel request (node shutdown)
 
     def __post_init__(self) -> None:
         self.free = frozenset(self.start) - frozenset(self.goals)
@@ -180,7 +181,7 @@ class Search:
 
     # --- helpers ----------------------------------------------------------------------------
     def check_time(self) -> None:
-        if time.monotonic() > self.deadline:
+        if time.monotonic() > self.deadline or self.should_stop():
             raise _Timeout
 
     def fail(self, block: int, placed: frozenset[int], reason: str) -> None:

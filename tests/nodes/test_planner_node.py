@@ -79,3 +79,14 @@ def test_goal_naming_an_unseen_block_is_a_clear_failure(ros):
     msg = ros.wait_for_message("/planner/status", String, status_is("failed", "42"),
                                timeout=20, qos=LATCHED)
     assert "never detected" in json.loads(msg.data)["last_error"]
+
+
+def test_blocks_that_do_not_fit_the_layout_are_a_clear_failure(ros):
+    from msgs_py import BlockPose
+
+    scene = random_scene(4, 0.1, seed=2)
+    outside = (*scene.blocks[:-1], BlockPose(scene.blocks[-1].id, 5.0, 5.0, 0.0))
+    start(ros, scene, BlockSet(outside))
+    msg = ros.wait_for_message("/planner/status", String, status_is("failed", "workspace"),
+                               timeout=20, qos=LATCHED)
+    assert "cannot plan" in json.loads(msg.data)["last_error"]
