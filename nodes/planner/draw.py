@@ -2,7 +2,8 @@
 
 Pick-and-place actions are solid blue arrows from the pick pose to the place pose; pushes are
 thick orange arrows; the number of each action sits at its start. Start footprints are filled
-(with the block id), goal footprints dashed outlines.
+(with the block id), goal footprints dashed green outlines, intermediate poses (clearing, regrasp,
+before a push) dotted grey outlines.
 """
 
 from __future__ import annotations
@@ -38,9 +39,15 @@ def draw_plan(scene: Scene, plan: Plan | None, path: str | Path, title: str = ""
         ax.add_patch(PatchPolygon(square_corners(b.x, b.y, b.theta, s), closed=True,
                                   fc="burlywood", ec="saddlebrown", alpha=0.7))
         ax.text(b.x, b.y, str(b.id), ha="center", va="center", fontsize=8, weight="bold")
+    goals = scene.goal_assignment()
     for k, action in enumerate(plan.actions if plan is not None else (), start=1):
         push = isinstance(action, Push)
         color = PUSH_COLOR if push else PICK_COLOR
+        goal = goals.get(action.block)
+        if goal is None or action.to.distance_to(goal) > 1e-6:  # an intermediate pose
+            ax.add_patch(PatchPolygon(square_corners(action.to.x, action.to.y, action.to.theta,
+                                                     s), closed=True, fill=False, ls=":",
+                                      ec="grey", lw=0.8))
         ax.annotate("", xy=(action.to.x, action.to.y), xytext=(action.from_.x, action.from_.y),
                     arrowprops={"arrowstyle": "-|>", "color": color, "lw": 2.5 if push else 1.2,
                                 "shrinkA": 0, "shrinkB": 0,
