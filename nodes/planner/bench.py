@@ -28,12 +28,13 @@ DENSITIES = {"low": 0.05, "high": 0.20}
 VARIANTS = {
     "default": {},
     "paper": {"distance_cost": False, "clear_outside_path": False, "clear_off_goals": False,
-              "clear_goal_first": False, "assembly_order": False},
+              "clear_goal_first": False, "assembly_order": False, "shortcut": False},
     "no_distance_cost": {"distance_cost": False},
     "no_clear_outside_path": {"clear_outside_path": False},
     "no_clear_off_goals": {"clear_off_goals": False},
     "no_clear_goal_first": {"clear_goal_first": False},
     "no_assembly_order": {"assembly_order": False},
+    "no_shortcut": {"shortcut": False},
     "a3_low": {"a3": 0.5},
 }
 

@@ -75,6 +75,8 @@ class PlannerConfig:
         True, "option: try to clear a blocking block straight to its own goal first")
     assembly_order: bool = param(
         True, "option: try blocks in an assembly order of the goal layout (paper: by id)")
+    shortcut: bool = param(
+        True, "option: merge two moves of the same block into one where the plan allows it")
     goal_tolerance_xy: float = param(
         0.002, "a block this close to its goal counts as placed (no action)", unit="m")
     goal_tolerance_yaw: float = param(

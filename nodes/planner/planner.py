@@ -20,6 +20,7 @@ from msgs_py.actions import Action
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext, at_pose
 from nodes.planner.search import PlanningFailure, Search
+from nodes.planner.shortcut import shortcut
 from nodes.planner.validator import validate_plan
 
 PLANNER_NAME = "pirs"
@@ -92,6 +93,10 @@ def plan_scene(scene: Scene, config: PlannerConfig, plan_id: str | None = None,
             search.should_stop = should_stop
         actions, _ = search.run()
         metrics.update(search.stats.as_metrics())
+        if config.shortcut:
+            before = len(actions)
+            actions = shortcut(ctx, start, actions)
+            metrics["shortcut_saved"] = float(before - len(actions))
     except PlanningFailure as failure:
         elapsed = time.monotonic() - t0
         if "search" in locals():
