@@ -3,8 +3,9 @@
 One frozen dataclass, ``PlannerConfig``, is both the ROS parameter set of the planner node
 (``declare_config``) and the argument of the pure planner. ``config/planner.yaml`` carries the
 same defaults (a unit test checks they agree). The physical reason of each geometric value is
-in its description; the figures follow a Robotiq 2F-85-class gripper (85 mm stroke, pads about
-22 mm wide and 10-12 mm thick).
+in its description; the figures follow a Robotiq 2F-85-class gripper as the sim models it
+(docs/contracts.md "Gripper": 85 mm stroke, fingers 14 mm thick along the closing axis and
+22 mm wide across it).
 """
 
 from __future__ import annotations
@@ -22,7 +23,8 @@ GRIPPER_STROKE = 0.085
 class PlannerConfig:
     # --- gripper geometry (docs/contracts.md "Plans and how the executor reads them") -------
     finger_thickness: float = param(
-        0.011, "finger pad size along the closing axis (2F-85 pad with its rubber)", unit="m")
+        0.014, "finger size along the closing axis (2F-85 phalanx + pad; docs/contracts.md)",
+        unit="m")
     finger_width: float = param(
         0.022, "finger pad size across the closing axis (2F-85 pad is ~22 mm wide)", unit="m")
     approach_clearance: float = param(
