@@ -68,10 +68,10 @@ class PlannerConfig:
     clear_off_goals: bool = param(
         True, "option: keep clearing poses off the goal slots of blocks not yet placed")
     clear_goal_margin: float = param(
-        0.05, "with clear_off_goals, first try to keep cleared blocks this far from pending "
+        0.07, "with clear_off_goals, first try to keep cleared blocks this far from pending "
         "goal slots, so fingers and push lanes around the goal stay free", unit="m")
     probe: int = param(
-        3, "candidates whose route is planned before choosing the next block to place: one "
+        5, "candidates whose route is planned before choosing the next block to place: one "
         "that needs no clearing goes first")
     clear_goal_first: bool = param(
         True, "option: try to clear a blocking block straight to its own goal first")
