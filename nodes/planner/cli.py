@@ -1,5 +1,8 @@
 """``densepack-plan SCENE.yaml -o plan.json --png plan.png``: plan a scene file offline.
 
+Any goal kind: labeled (pIRS), unlabeled (rearrangement pebble graphs, or ``--method
+assignment``), retrieval (a labeled goal naming only some blocks).
+
 Parameters come from ``config/planner.yaml`` (or ``--params``), then the flags. The plan is
 validated by the replay validator before it is written; on failure the command prints the
 failing block and the reason and exits 1 (the PNG, if asked for, still shows the scene).
@@ -19,7 +22,8 @@ import yaml
 from msgs_py import MessageError, load_scene, save_plan
 from nodes.common.paths import config_path
 from nodes.planner.config import PlannerConfig
-from nodes.planner.planner import plan_scene
+from nodes.planner.unlabeled.config import UnlabeledConfig
+from nodes.planner.unlabeled.dispatch import goal_kind, plan_goal
 
 
 def load_config(path: str | Path | None, overrides: dict[str, Any]) -> PlannerConfig:
@@ -39,6 +43,31 @@ def load_config(path: str | Path | None, overrides: dict[str, Any]) -> PlannerCo
     return PlannerConfig(**values)
 
 
+def load_unlabeled_config(path: str | Path | None, overrides: dict[str, Any]
+                          ) -> UnlabeledConfig:
+    """``UnlabeledConfig`` from the ``unlabeled`` group of the same parameter file (nested
+    or as dotted keys) plus overrides named ``unlabeled.<field>``."""
+    values: dict[str, Any] = {}
+    file = config_path(path or "planner.yaml")
+    if file.exists():
+        data = yaml.safe_load(file.read_text()) or {}
+        for section in data.values():
+            params = section.get("ros__parameters", {}) if isinstance(section, dict) else {}
+            nested = params.get("unlabeled", {})
+            values.update(nested if isinstance(nested, dict) else {})
+            values.update({k[len("unlabeled."):]: v for k, v in params.items()
+                           if k.startswith("unlabeled.")})
+    values.update({k[len("unlabeled."):]: v for k, v in overrides.items()
+                   if k.startswith("unlabeled.") and v is not None})
+    names = {f.name for f in dataclasses.fields(UnlabeledConfig)}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise ValueError(f"unknown parameters {['unlabeled.' + k for k in unknown]}")
+    if isinstance(values.get("push_lengths"), list):
+        values["push_lengths"] = tuple(values["push_lengths"])
+    return UnlabeledConfig(**values)
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="densepack-plan", description=__doc__.splitlines()[0])
     p.add_argument("scene", type=Path, help="scene file (YAML/JSON) with blocks and a goal")
@@ -51,6 +80,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--eps", type=float, default=None)
     for name in ("a1", "a2", "a3"):
         p.add_argument(f"--{name}", type=float, default=None)
+    p.add_argument("--method", default=None, help="unlabeled goals: pebble_graphs | assignment")
+    p.add_argument("--b", type=int, default=None,
+                   help="unlabeled goals: empty nodes per rearrangement pebble graph")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="any other planner parameter (YAML value), repeatable")
     return p
@@ -63,10 +95,13 @@ def main(args: Sequence[str] | None = None) -> int:
     for item in opts.set:
         name, _, value = item.partition("=")
         overrides[name.strip()] = yaml.safe_load(value)
+    overrides["unlabeled.method"], overrides["unlabeled.b"] = opts.method, opts.b
+    ours = {k: v for k, v in overrides.items() if k.startswith("unlabeled.")}
     try:
-        config = load_config(opts.params, overrides)
+        config = load_config(opts.params, {k: v for k, v in overrides.items() if k not in ours})
+        unlabeled = load_unlabeled_config(opts.params, ours)
         scene = load_scene(opts.scene)
-        outcome = plan_scene(scene, config)
+        outcome = plan_goal(scene, config, unlabeled)
     except (MessageError, ValueError, TypeError, FileNotFoundError) as err:
         print(f"densepack-plan: {err}", file=sys.stderr)
         return 2
@@ -80,8 +115,9 @@ def main(args: Sequence[str] | None = None) -> int:
         return 1
     plan = outcome.plan
     n_push = sum(a.type == "push" for a in plan.actions)
-    print(f"plan {plan.plan_id}: {len(plan.actions)} actions ({n_push} pushes, lower bound "
-          f"{outcome.lower_bound}) in {outcome.planning_time_s:.2f} s, validated")
+    print(f"plan {plan.plan_id} ({goal_kind(scene)} goal, {plan.planner}): "
+          f"{len(plan.actions)} actions ({n_push} pushes, lower bound {outcome.lower_bound}) "
+          f"in {outcome.planning_time_s:.2f} s, validated")
     if opts.output is not None:
         save_plan(plan, opts.output)
         print(f"wrote {opts.output}")

@@ -19,6 +19,7 @@ from matplotlib.patches import Rectangle
 
 from msgs_py import Plan, Push, Scene
 from msgs_py.footprint import square_corners
+from nodes.planner.unlabeled.goal_check import goal_slots
 
 PICK_COLOR = "tab:blue"
 PUSH_COLOR = "tab:orange"
@@ -30,21 +31,24 @@ def draw_plan(scene: Scene, plan: Plan | None, path: str | Path, title: str = ""
     w, s = scene.workspace, scene.block_size
     ax.add_patch(Rectangle((w.x_min, w.y_min), w.x_max - w.x_min, w.y_max - w.y_min,
                            fill=False, lw=1.5, ec="black"))
-    for block, goal in sorted(scene.goal_assignment().items()):
+    labeled = scene.goal is not None and scene.goal.labeled
+    slots = goal_slots(scene)
+    for key, goal in slots:
         ax.add_patch(PatchPolygon(square_corners(goal.x, goal.y, goal.theta, s), closed=True,
                                   fill=False, ls="--", ec="tab:green", lw=1.2))
-        ax.text(goal.x, goal.y, str(block), color="tab:green", ha="center", va="center",
-                fontsize=7, alpha=0.8)
+        ax.text(goal.x, goal.y, str(key) if labeled else "any", color="tab:green",
+                ha="center", va="center", fontsize=7, alpha=0.8)
     for b in scene.blocks:
         ax.add_patch(PatchPolygon(square_corners(b.x, b.y, b.theta, s), closed=True,
                                   fc="burlywood", ec="saddlebrown", alpha=0.7))
         ax.text(b.x, b.y, str(b.id), ha="center", va="center", fontsize=8, weight="bold")
-    goals = scene.goal_assignment()
+    goals = dict(slots) if labeled else {}
     for k, action in enumerate(plan.actions if plan is not None else (), start=1):
         push = isinstance(action, Push)
         color = PUSH_COLOR if push else PICK_COLOR
-        goal = goals.get(action.block)
-        if goal is None or action.to.distance_to(goal) > 1e-6:  # an intermediate pose
+        ends = [goals[action.block]] if action.block in goals else [] if labeled else \
+            [g for _, g in slots]
+        if not any(action.to.distance_to(g) <= 1e-6 for g in ends):  # an intermediate pose
             ax.add_patch(PatchPolygon(square_corners(action.to.x, action.to.y, action.to.theta,
                                                      s), closed=True, fill=False, ls=":",
                                       ec="grey", lw=0.8))

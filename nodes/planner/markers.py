@@ -13,6 +13,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from msgs_py import Plan, Push, Scene
 from msgs_py.ros_codecs import yaw_to_quaternion_xyzw
+from nodes.planner.unlabeled.goal_check import goal_slots
 
 COLORS = {
     "start": (0.85, 0.68, 0.45, 0.9),
@@ -52,8 +53,8 @@ def plan_markers(plan: Plan, scene: Scene, frame_id: str = "world") -> MarkerArr
     for b in scene.blocks:
         markers.append(_cube("plan_start", b.id, b.x, b.y, b.theta, s, frame_id,
                              COLORS["start"], s))
-    for block, goal in sorted(scene.goal_assignment().items()):
-        markers.append(_cube("plan_goal", block, goal.x, goal.y, goal.theta, s, frame_id,
+    for key, goal in goal_slots(scene):  # marker id: the block id, or the slot if unlabeled
+        markers.append(_cube("plan_goal", key, goal.x, goal.y, goal.theta, s, frame_id,
                              COLORS["goal"], 0.2 * s))
     z = 1.2 * s
     for k, action in enumerate(plan.actions, start=1):

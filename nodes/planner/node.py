@@ -6,6 +6,8 @@ Subscribes ``/blocks/detected`` (MarkerArray) and ``/goal_layout`` (String); pub
 (std_srvs/Trigger). It plans once automatically as soon as it has a goal layout and a detection
 that shows every block (a block listed as ``missing`` is occluded: it waits for the next
 detection and says so). A bad goal or detection is reported on the log and in the status.
+Every goal kind is planned (``unlabeled.dispatch.plan_goal``): labeled with pIRS, unlabeled and
+retrieval (a labeled goal naming only some blocks) with rearrangement pebble graphs.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.planner.config import PlannerConfig
 from nodes.planner.markers import plan_markers
-from nodes.planner.planner import check_scene, plan_scene
+from nodes.planner.unlabeled.config import UnlabeledConfig
+from nodes.planner.unlabeled.dispatch import check_goal, goal_kind, plan_goal
 
 
 def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str]:
@@ -35,7 +38,7 @@ def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str
     if detection.missing:
         return None, (f"blocks {sorted(detection.missing)} are occluded in the last detection; "
                       "waiting for one that shows every block")
-    check_scene(layout)
+    check_goal(layout)
     seen = set(detection.ids)
     named = sorted(s.id for s in layout.goal.slots if s.id is not None)
     unseen = [b for b in named if b not in seen]
@@ -49,6 +52,7 @@ class PlannerNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("planner", **kwargs)
         self.config = declare_config(self, PlannerConfig)
+        self.unlabeled = declare_config(self, UnlabeledConfig, prefix="unlabeled.")
         self._lock = threading.Lock()
         self._layout: Scene | None = None
         self._detection: BlockSet | None = None
@@ -67,14 +71,15 @@ class PlannerNode(Node):
     def on_goal(self, msg: String) -> None:
         try:
             layout = scene_from_string(msg)
-            check_scene(layout)
+            check_goal(layout)
         except (MessageError, ValueError) as err:
             self.get_logger().error(f"refused goal layout: {err}")
             self.status(PlannerStatus("failed", last_error=f"goal layout refused: {err}"))
             return
         with self._lock:
             self._layout, self._auto_pending = layout, True
-        self.get_logger().info(f"goal layout: {layout.goal.n_slots} slots")
+        self.get_logger().info(f"goal layout: {layout.goal.n_slots} slots "
+                               f"({goal_kind(layout)})")
         self.try_plan(auto=True)
 
     def on_detection(self, msg: MarkerArray) -> None:
@@ -142,7 +147,8 @@ class PlannerNode(Node):
         plan_id = uuid.uuid4().hex[:12]
         self.status(PlannerStatus("planning", plan_id=plan_id))
         try:
-            outcome = plan_scene(scene, self.config, plan_id, should_stop=self._stop.is_set)
+            outcome = plan_goal(scene, self.config, self.unlabeled, plan_id,
+                                should_stop=self._stop.is_set)
         except (MessageError, ValueError) as err:
             self.get_logger().error(f"cannot plan: {err}")
             self.status(PlannerStatus("failed", plan_id=plan_id, last_error=str(err)))
@@ -174,9 +180,10 @@ class PlannerNode(Node):
 SPEC = NodeSpec(
     "planner",
     PlannerNode,
-    "Plans pick-and-place and push actions (pIRS over a PRM) from /blocks/detected to "
-    "/goal_layout; publishes /plan, /plan/markers, /planner/status; serves /planner/replan.",
-    configs=(("", PlannerConfig),),
+    "Plans pick-and-place and push actions (pIRS over a PRM; rearrangement pebble graphs "
+    "for unlabeled and retrieval goals) from /blocks/detected to /goal_layout; publishes "
+    "/plan, /plan/markers, /planner/status; serves /planner/replan.",
+    configs=(("", PlannerConfig), ("unlabeled.", UnlabeledConfig)),
 )
 
 
