@@ -37,5 +37,5 @@ def test_yaml_group_matches_the_dataclass_and_every_key_has_a_unit_comment():
     assert lines and all("# [" in line for line in lines if line.strip())
     assert load_unlabeled_config(None, {}) == UnlabeledConfig()
     assert load_unlabeled_config(None, {"unlabeled.b": 3}).b == 3
-    with pytest.raises(ValueError, match="unlabeled.nope"):
+    with pytest.raises(ValueError, match=r"unlabeled\.nope"):
         load_unlabeled_config(None, {"unlabeled.nope": 1})
