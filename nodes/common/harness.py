@@ -29,7 +29,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from nodes.common.qos import RELIABLE
 
@@ -72,6 +72,9 @@ class RosHarness:
         self._nodes: list[Node] = [self.probe]
         self._errors: list[BaseException] = []
         self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._subs: dict[tuple, tuple] = {}
+        self._clients: dict[tuple, Any] = {}
         self._thread = threading.Thread(target=self._spin, name="ros-harness", daemon=True)
         self._thread.start()
 
@@ -96,6 +99,29 @@ class RosHarness:
             raise self._errors[0]
 
     # --- messages -------------------------------------------------------------------------------
+    def _subscription(self, topic: str, msg_type: type, qos: QoSProfile) -> tuple:
+        """One long-lived subscription per (topic, type, QoS), shared by every waiter.
+
+        Subscriptions are never destroyed while the executor spins: destroying an entity
+        that a wait set is using races with the spinning thread.
+        """
+        key = (topic, msg_type, qos.reliability, qos.durability, qos.depth)
+        with self._lock:
+            if key not in self._subs:
+                waiters: list[Callable[[Any], None]] = []
+                latest: list[Any] = []
+
+                def dispatch(msg: Any, waiters=waiters, latest=latest) -> None:
+                    with self._lock:
+                        latest[:] = [msg]
+                        current = list(waiters)
+                    for waiter in current:
+                        waiter(msg)
+
+                sub = self.probe.create_subscription(msg_type, topic, dispatch, qos)
+                self._subs[key] = (sub, waiters, latest)
+            return self._subs[key]
+
     def wait_for_message(
         self,
         topic: str,
@@ -105,6 +131,9 @@ class RosHarness:
         qos: QoSProfile = RELIABLE,
     ) -> Any:
         """The first message on ``topic`` that satisfies ``predicate``.
+
+        With a transient-local (latched) ``qos`` the last message already received counts
+        too, so a test sees a latched state even if it arrived before the call.
 
         Raises:
             TimeoutError: nothing matching arrived within ``timeout`` seconds.
@@ -117,13 +146,19 @@ class RosHarness:
                 found.append(msg)
                 event.set()
 
-        sub = self.probe.create_subscription(msg_type, topic, on_message, qos)
+        _, waiters, latest = self._subscription(topic, msg_type, qos)
+        with self._lock:
+            waiters.append(on_message)
+            replay = list(latest) if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL else []
         try:
+            for msg in replay:
+                on_message(msg)
             if not event.wait(timeout):
                 self.check()
                 raise TimeoutError(f"no matching {msg_type.__name__} on {topic} in {timeout} s")
         finally:
-            self.probe.destroy_subscription(sub)
+            with self._lock:
+                waiters.remove(on_message)
         return found[0]
 
     def publisher(self, topic: str, msg_type: type, qos: QoSProfile = RELIABLE) -> Any:
@@ -137,19 +172,19 @@ class RosHarness:
             time.sleep(0.02)
 
     def call_service(self, name: str, srv_type: type, request: Any = None, timeout: float = 10.0):
-        client = self.probe.create_client(srv_type, name)
-        try:
-            if not client.wait_for_service(timeout_sec=timeout):
-                raise TimeoutError(f"service {name} not available in {timeout} s")
-            future = client.call_async(request if request is not None else srv_type.Request())
-            deadline = time.monotonic() + timeout
-            while not future.done():
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"service {name} did not answer in {timeout} s")
-                time.sleep(0.01)
-            return future.result()
-        finally:
-            self.probe.destroy_client(client)
+        with self._lock:
+            client = self._clients.get((name, srv_type))
+            if client is None:  # kept for the harness's life: see _subscription
+                client = self._clients[(name, srv_type)] = self.probe.create_client(srv_type, name)
+        if not client.wait_for_service(timeout_sec=timeout):
+            raise TimeoutError(f"service {name} not available in {timeout} s")
+        future = client.call_async(request if request is not None else srv_type.Request())
+        deadline = time.monotonic() + timeout
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"service {name} did not answer in {timeout} s")
+            time.sleep(0.01)
+        return future.result()
 
     # --- lifecycle ------------------------------------------------------------------------------
     def shutdown(self) -> None:
