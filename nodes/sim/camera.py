@@ -1,0 +1,114 @@
+"""The overhead camera: pinhole intrinsics and a pose <-> PyBullet view/projection matrices.
+
+OpenCV conventions throughout: ``camera_optical_frame`` has z forward, x right, y down; pixel
+(u, v) = (0, 0) is the *centre* of the top-left pixel; ``u = fx X/Z + cx``. PyBullet wants
+OpenGL matrices (camera looking down -z, y up). TinyRenderer samples image column i at
+NDC x = -1 + 2 i / W and image row r (top first) at NDC y = 1 - 2 (r + 1) / H (it rasterises
+bottom-up at integer positions, then flips the rows), so ``projection_matrix`` places the
+principal point accordingly; the camera test checks that a tag's projected centre lands on
+the predicted pixel (measured bias < 0.1 px).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodes.common.transforms import quaternion_to_matrix
+
+#: Optical frame -> OpenGL camera frame (y and z flipped).
+OPTICAL_TO_GL = np.diag([1.0, -1.0, -1.0])
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    position: tuple[float, float, float]  #: optical frame origin in world (m)
+    orientation_xyzw: tuple[float, float, float, float]  #: optical frame in world
+    near: float = 0.1
+    far: float = 3.0
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"camera size {self.width}x{self.height} must be positive")
+        if self.fx <= 0 or self.fy <= 0:
+            raise ValueError(f"focal lengths fx={self.fx}, fy={self.fy} must be positive")
+        if not 0 < self.near < self.far:
+            raise ValueError(f"need 0 < near < far, got {self.near}, {self.far}")
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Optical frame axes in world (columns)."""
+        return quaternion_to_matrix(self.orientation_xyzw)
+
+    @property
+    def k(self) -> np.ndarray:
+        return np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1.0]])
+
+    def view_matrix(self) -> list[float]:
+        """World -> OpenGL camera, column-major 16 floats (PyBullet's layout)."""
+        r_gl = self.rotation @ OPTICAL_TO_GL
+        view = np.eye(4)
+        view[:3, :3] = r_gl.T
+        view[:3, 3] = -r_gl.T @ np.asarray(self.position, dtype=float)
+        return view.T.reshape(-1).tolist()
+
+    def projection_matrix(self) -> list[float]:
+        """OpenGL projection of these intrinsics, column-major 16 floats."""
+        w, h, n, f = self.width, self.height, self.near, self.far
+        proj = np.zeros((4, 4))
+        proj[0, 0] = 2.0 * self.fx / w
+        proj[0, 2] = 1.0 - 2.0 * self.cx / w
+        proj[1, 1] = 2.0 * self.fy / h
+        proj[1, 2] = (2.0 * self.cy + 2.0) / h - 1.0
+        proj[2, 2] = -(f + n) / (f - n)
+        proj[2, 3] = -2.0 * f * n / (f - n)
+        proj[3, 2] = -1.0
+        return proj.T.reshape(-1).tolist()
+
+    def project(self, points_world) -> np.ndarray:
+        """(N, 3) world points -> (N, 2) pixel coordinates (u, v)."""
+        pts = np.atleast_2d(np.asarray(points_world, dtype=float))
+        cam = (pts - np.asarray(self.position)) @ self.rotation  # R^T (p - t), row-wise
+        uv = cam[:, :2] / cam[:, 2:3]
+        return uv * [self.fx, self.fy] + [self.cx, self.cy]
+
+    def ground_footprint(self, z: float = 0.0) -> np.ndarray:
+        """(4, 2) world x, y of the image corners' rays hitting the plane at height z."""
+        corners = np.array([[0, 0], [self.width - 1, 0], [self.width - 1, self.height - 1],
+                            [0, self.height - 1]], dtype=float)
+        rays = np.column_stack([(corners[:, 0] - self.cx) / self.fx,
+                                (corners[:, 1] - self.cy) / self.fy, np.ones(4)])
+        rays_w = rays @ self.rotation.T
+        origin = np.asarray(self.position)
+        scale = (z - origin[2]) / rays_w[:, 2]
+        return (origin + rays_w * scale[:, None])[:, :2]
+
+    def sees(self, points_world, margin_px: float = 0.0) -> np.ndarray:
+        """Which world points project inside the image (``margin_px`` from the border)."""
+        uv = self.project(points_world)
+        return ((uv[:, 0] >= margin_px) & (uv[:, 0] <= self.width - 1 - margin_px)
+                & (uv[:, 1] >= margin_px) & (uv[:, 1] <= self.height - 1 - margin_px))
+
+
+def render_rgb(client, camera: CameraModel, noise_std: float = 0.0,
+               rng: np.random.Generator | None = None) -> np.ndarray:
+    """Render (H, W, 3) uint8 RGB with TinyRenderer (headless); optional Gaussian noise."""
+    import pybullet
+
+    _, _, rgba, _, _ = client.getCameraImage(
+        camera.width, camera.height, camera.view_matrix(), camera.projection_matrix(),
+        renderer=pybullet.ER_TINY_RENDERER, flags=pybullet.ER_NO_SEGMENTATION_MASK,
+        shadow=0)
+    image = np.asarray(rgba, dtype=np.uint8).reshape(camera.height, camera.width, 4)[..., :3]
+    if noise_std > 0.0:
+        rng = rng or np.random.default_rng()
+        noisy = image.astype(np.float32) + rng.normal(0.0, noise_std, image.shape)
+        image = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(image)

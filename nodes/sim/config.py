@@ -1,0 +1,112 @@
+"""The sim node's parameters (frozen dataclasses; names, defaults, units as in config/sim.yaml)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from nodes.common.params import param
+from nodes.sim import robot_model as rm
+from nodes.sim.camera import CameraModel
+
+#: Park pose of the TCP (world, tool pointing down, closing axis along x): outside the camera's
+#: view of the workspace; the executor parks here before asking for a fresh detection.
+PARK_POSITION = (0.25, -0.55, 0.40)
+PARK_YAW = 0.0
+#: ``PARK_POSITION`` solved on the elbow-up, wrist-down branch the workspace is reached on.
+HOME_JOINTS = (1.7050197, -1.3509143, 1.5056703, 1.4160404, 1.5707963, 0.1342234)
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    scene_file: str = param("scenes/default.yaml",
+                            "scene file (msgs_py scene; relative paths resolve under config/); "
+                            "ignored when random.n_blocks > 0")
+    physics_rate_hz: float = param(240.0, "physics step rate (>= 240)", unit="Hz")
+    solver_iterations: int = param(100, "constraint solver iterations per physics step")
+    real_time_factor: float = param(
+        1.0, "pacing: simulated seconds per wall second (0 = as fast as possible)")
+    clock_rate_hz: float = param(100.0, "/clock publish rate in simulated time", unit="Hz")
+    state_rate_hz: float = param(
+        50.0, "/joint_states and /tcp_pose rate in simulated time", unit="Hz")
+    ground_truth_rate_hz: float = param(
+        10.0, "/sim/ground_truth rate in simulated time", unit="Hz")
+    events_rate_hz: float = param(2.0, "/sim/events rate in simulated time", unit="Hz")
+    contact_check_rate_hz: float = param(
+        60.0, "how often the event monitor inspects contacts (simulated time)", unit="Hz")
+    grip_force: float = param(rm.GRIP_FORCE_DEFAULT, "finger force limit (2F-85: 20-235 N)",
+                              unit="N")
+    gripper_speed: float = param(rm.CLOSING_SPEED_DEFAULT,
+                                 "gap closing/opening speed (2F-85: 0.02-0.15 m/s)", unit="m/s")
+    min_tcp_z: float = param(0.0, "safety plane: setpoints with the TCP below it are rejected",
+                             unit="m")
+    speed_scale: float = param(1.0, "fraction of the UR10e joint velocity limits the "
+                                    "controller uses (0-1]")
+    home_joints: tuple = param(list(HOME_JOINTS), "arm joints at start and after /sim/reset "
+                               "(the park pose)", unit="rad")
+    park_position: tuple = param(list(PARK_POSITION), "park TCP position for the executor "
+                                 "(tool down; informational, published in the README)", unit="m")
+    lost_margin: float = param(0.02, "a resting block whose centre is this far outside the "
+                               "workspace counts as lost", unit="m")
+    seed: int = param(0, "seed of the pixel noise generator")
+
+    def __post_init__(self) -> None:
+        if self.physics_rate_hz < 240.0:
+            raise ValueError(f"physics_rate_hz must be >= 240, got {self.physics_rate_hz}")
+        if self.real_time_factor < 0.0:
+            raise ValueError(f"real_time_factor must be >= 0, got {self.real_time_factor}")
+        for name in ("clock_rate_hz", "state_rate_hz", "ground_truth_rate_hz", "events_rate_hz",
+                     "contact_check_rate_hz"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f"{name} must be > 0")
+        lo, hi = rm.GRIP_FORCE_RANGE
+        if not lo <= self.grip_force <= hi:
+            raise ValueError(f"grip_force must be in [{lo}, {hi}] N, got {self.grip_force}")
+        lo, hi = rm.CLOSING_SPEED_RANGE
+        if not lo <= self.gripper_speed <= hi:
+            raise ValueError(f"gripper_speed must be in [{lo}, {hi}] m/s")
+        if len(self.home_joints) != 6 or not all(math.isfinite(v) for v in self.home_joints):
+            raise ValueError(f"home_joints needs 6 finite values, got {self.home_joints}")
+        if len(self.park_position) != 3:
+            raise ValueError("park_position needs 3 values")
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.physics_rate_hz
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """The TRUE camera (the detector never reads it; it has config/camera_calibration.yaml)."""
+
+    width: int = param(1280, "image width", unit="px")
+    height: int = param(960, "image height", unit="px")
+    fx: float = param(1400.0, "focal length x", unit="px")
+    fy: float = param(1400.0, "focal length y", unit="px")
+    cx: float = param(639.5, "principal point x", unit="px")
+    cy: float = param(479.5, "principal point y", unit="px")
+    position: tuple = param([0.7042, -0.0031, 1.2468],
+                            "camera_optical_frame origin in world (true pose)", unit="m")
+    orientation_xyzw: tuple = param(
+        [0.7095437, -0.7046074, -0.0086431, 0.001204],
+        "camera_optical_frame orientation in world (true pose; x y z w)")
+    rate_hz: float = param(2.0, "image rate in simulated time (0 = only on /camera/trigger)",
+                           unit="Hz")
+    noise_std: float = param(0.0, "std of Gaussian pixel noise (0 = none)", unit="grey levels")
+
+    def __post_init__(self) -> None:
+        if len(self.position) != 3 or len(self.orientation_xyzw) != 4:
+            raise ValueError("camera.position needs 3 values, camera.orientation_xyzw 4")
+        if self.rate_hz < 0 or self.noise_std < 0:
+            raise ValueError("camera.rate_hz and camera.noise_std must be >= 0")
+
+    def model(self) -> CameraModel:
+        return CameraModel(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
+                           tuple(self.position), tuple(self.orientation_xyzw))
+
+
+@dataclass(frozen=True)
+class RandomSceneConfig:
+    n_blocks: int = param(0, "random scene with this many blocks (0 = use scene_file)")
+    density: float = param(0.25, "random scene density: block area / workspace area")
+    seed: int = param(0, "random scene seed")

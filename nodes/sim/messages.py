@@ -1,0 +1,80 @@
+"""ROS message <-> plain values for the sim node's edge (message classes only, no rclpy)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import CameraInfo, Image, JointState
+
+from msgs_py import MessageError, parse_text
+from msgs_py.checks import check_keys, finite_float, integer, require_mapping
+from nodes.sim.camera import CameraModel
+
+CAMERA_FRAME = "camera_optical_frame"
+
+
+def pose_from_msg(msg: PoseStamped) -> tuple[list[float], list[float], str]:
+    """(position, quaternion xyzw, frame_id) of a setpoint, or MessageError naming the field."""
+    p, q = msg.pose.position, msg.pose.orientation
+    position = [finite_float(f"pose.position.{k}", getattr(p, k)) for k in "xyz"]
+    quat = [finite_float(f"pose.orientation.{k}", getattr(q, k)) for k in "xyzw"]
+    norm = math.sqrt(sum(v * v for v in quat))
+    if abs(norm - 1.0) > 0.1:
+        raise MessageError("pose.orientation", quat, f"quaternion norm {norm:.3f} is not ~1")
+    return position, quat, msg.header.frame_id
+
+
+def pose_stamped_msg(stamp: Time, position, quat_xyzw, frame_id: str = "world") -> PoseStamped:
+    msg = PoseStamped()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = (float(v) for v in position)
+    o = msg.pose.orientation
+    o.x, o.y, o.z, o.w = (float(v) for v in quat_xyzw)
+    return msg
+
+
+def joint_state_msg(stamp: Time, names, positions, velocities) -> JointState:
+    msg = JointState()
+    msg.header.stamp = stamp
+    msg.name = list(names)
+    msg.position = [float(v) for v in positions]
+    msg.velocity = [float(v) for v in velocities]
+    return msg
+
+
+def image_msg(stamp: Time, rgb: np.ndarray) -> Image:
+    msg = Image()
+    msg.header.stamp = stamp
+    msg.header.frame_id = CAMERA_FRAME
+    msg.height, msg.width = int(rgb.shape[0]), int(rgb.shape[1])
+    msg.encoding = "rgb8"
+    msg.is_bigendian = 0
+    msg.step = msg.width * 3
+    msg.data = np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
+    return msg
+
+
+def camera_info_msg(stamp: Time, camera: CameraModel) -> CameraInfo:
+    msg = CameraInfo()
+    msg.header.stamp = stamp
+    msg.header.frame_id = CAMERA_FRAME
+    msg.width, msg.height = camera.width, camera.height
+    msg.distortion_model = "plumb_bob"
+    msg.d = [0.0] * 5
+    msg.k = [float(v) for v in camera.k.reshape(-1)]
+    msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    msg.p = [camera.fx, 0.0, camera.cx, 0.0, 0.0, camera.fy, camera.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+    return msg
+
+
+def parse_disturb(text: str) -> tuple[int, float, float]:
+    """``{"block": id, "dx": m, "dy": m}`` -> (id, dx, dy); MessageError names a bad field."""
+    data: Any = require_mapping("disturb", parse_text(text, "disturb"))
+    check_keys("", data, ("block", "dx", "dy"), ())
+    return (integer("block", data["block"], minimum=0), finite_float("dx", data["dx"]),
+            finite_float("dy", data["dy"]))

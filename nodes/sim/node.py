@@ -1,0 +1,282 @@
+"""``densepack-sim``: the simulated UR10e cell as a ROS 2 node.
+
+One thread (``sim-loop``) owns the PyBullet world: it steps physics, runs the arm
+controller, renders, and publishes, paced to ``real_time_factor``. ROS callbacks never touch
+the world; they validate their message and queue a command that the loop applies between
+two physics steps (services wait for the loop's answer). So rendering pauses physics, and
+nothing is half-applied: a malformed message is refused in its callback with a warning.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import json
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from geometry_msgs.msg import PoseStamped
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import CameraInfo, Image, JointState
+from std_msgs.msg import Float64, String
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import MarkerArray
+
+from msgs_py import BlockSet, MessageError
+from msgs_py.ros_codecs import block_set_to_markers, executor_status_from_string, ns_to_stamp
+from nodes.common.params import declare_config
+from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.runner import NodeSpec, run_node
+from nodes.sim.config import CameraConfig, RandomSceneConfig, SimConfig
+from nodes.sim.layout import load_sim_scene, scene_problems
+from nodes.sim.messages import (
+    camera_info_msg,
+    image_msg,
+    joint_state_msg,
+    parse_disturb,
+    pose_from_msg,
+    pose_stamped_msg,
+)
+from nodes.sim.world import SimWorld
+
+#: Camera frames: reliable, so a 3.7 MB frame is re-sent rather than lost over Fast DDS;
+#: best-effort (sensor-data) subscribers still match a reliable publisher.
+CAMERA_QOS = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE)
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+SERVICE_TIMEOUT_S = 60.0
+
+
+class SimNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("sim", **kwargs)
+        self.config = declare_config(self, SimConfig)
+        self.camera_config = declare_config(self, CameraConfig, "camera.")
+        self.random_config = declare_config(self, RandomSceneConfig, "random.")
+        self.scene = self._load_scene()
+        self.world = SimWorld(self.config, self.camera_config.model(), self.scene,
+                              noise_std=self.camera_config.noise_std)
+        self._commands: collections.deque[Callable[[], None]] = collections.deque()
+        self._stop = threading.Event()
+        self._make_interfaces()
+        self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
+        self._thread.start()
+        self.get_logger().info(
+            f"sim running: {len(self.scene.blocks)} blocks, physics {self.config.physics_rate_hz}"
+            f" Hz, real_time_factor {self.config.real_time_factor}, camera "
+            f"{self.camera_config.width}x{self.camera_config.height} at "
+            f"{self.camera_config.rate_hz} Hz")
+
+    def _load_scene(self):
+        rnd = self.random_config
+        scene = load_sim_scene(self.config.scene_file, rnd.n_blocks, rnd.density, rnd.seed)
+        problems = scene_problems(scene, self.camera_config.model(), self.config.home_joints)
+        if problems:
+            raise ValueError("the scene does not fit the cell: " + "; ".join(problems))
+        return scene
+
+    def _make_interfaces(self) -> None:
+        group = ReentrantCallbackGroup()
+        self.pub_clock = self.create_publisher(Clock, "/clock", CLOCK_QOS)
+        self.pub_joints = self.create_publisher(JointState, "/joint_states", RELIABLE)
+        self.pub_tcp = self.create_publisher(PoseStamped, "/tcp_pose", RELIABLE)
+        self.pub_truth = self.create_publisher(MarkerArray, "/sim/ground_truth", RELIABLE)
+        self.pub_events = self.create_publisher(String, "/sim/events", LATCHED)
+        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA_QOS)
+        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA_QOS)
+        self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
+                                 RELIABLE, callback_group=group)
+        self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
+                                 callback_group=group)
+        # Volatile on purpose: it matches the executor whether it latches its status or not.
+        self.create_subscription(String, "/executor/status", self._on_status, RELIABLE,
+                                 callback_group=group)
+        self.create_subscription(String, "/sim/disturb", self._on_disturb, RELIABLE,
+                                 callback_group=group)
+        self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
+        self.create_service(Trigger, "/camera/trigger", self._on_trigger, callback_group=group)
+
+    # --- callbacks (any executor thread): validate, then queue ----------------------------------
+    def _on_setpoint(self, msg: PoseStamped) -> None:
+        try:
+            position, quat, frame = pose_from_msg(msg)
+        except (MessageError, ValueError) as err:
+            self.get_logger().warning(f"/arm/cartesian_setpoint refused: {err}")
+            return
+
+        def apply() -> None:
+            result = self.world.set_setpoint(position, quat, frame)
+            if not result.accepted:
+                self.get_logger().warning(
+                    f"setpoint {[round(v, 4) for v in position]} rejected, arm holds: "
+                    f"{result.reason}", throttle_duration_sec=1.0)
+        self._commands.append(apply)
+
+    def _on_gripper(self, msg: Float64) -> None:
+        gap = float(msg.data)
+        if not math.isfinite(gap):
+            self.get_logger().warning(f"/gripper/command refused: {gap} is not finite")
+            return
+        self._commands.append(lambda: self.world.set_gripper(gap))
+
+    def _on_status(self, msg: String) -> None:
+        try:
+            status = executor_status_from_string(msg)
+        except (MessageError, ValueError) as err:
+            self.get_logger().warning(f"/executor/status ignored: {err}")
+            return
+        self._commands.append(lambda: self.world.set_manipulated(status.block))
+
+    def _on_disturb(self, msg: String) -> None:
+        try:
+            block, dx, dy = parse_disturb(msg.data)
+        except (MessageError, ValueError) as err:
+            self.get_logger().warning(f"/sim/disturb refused: {err}")
+            return
+
+        def apply() -> None:
+            try:
+                self.world.disturb(block, dx, dy)
+            except ValueError as err:
+                self.get_logger().warning(f"/sim/disturb refused: {err}")
+        self._commands.append(apply)
+
+    def _on_reset(self, request, response):
+        def apply() -> str:
+            scene = self._load_scene()
+            self.world.reset(scene)
+            self.scene = scene
+            self._publish_events()
+            return f"reset: {len(scene.blocks)} blocks at t = {self.world.time_s:.3f} s"
+        return self._answer(apply, response)
+
+    def _on_trigger(self, request, response):
+        return self._answer(lambda: str(self._publish_camera()), response)
+
+    def _answer(self, fn: Callable[[], str], response):
+        future: concurrent.futures.Future = concurrent.futures.Future()
+
+        def apply() -> None:
+            try:
+                future.set_result(fn())
+            except Exception as err:  # reported to the caller, the loop carries on
+                future.set_exception(err)
+        self._commands.append(apply)
+        try:
+            response.message = future.result(timeout=SERVICE_TIMEOUT_S)
+            response.success = True
+        except Exception as err:
+            response.success = False
+            response.message = f"{type(err).__name__}: {err}"
+        return response
+
+    # --- the sim loop (the only thread that touches the world) ----------------------------------
+    def _loop(self) -> None:
+        cfg = self.config
+        every = {
+            "clock": _period_steps(cfg.physics_rate_hz, cfg.clock_rate_hz),
+            "state": _period_steps(cfg.physics_rate_hz, cfg.state_rate_hz),
+            "truth": _period_steps(cfg.physics_rate_hz, cfg.ground_truth_rate_hz),
+            "events": _period_steps(cfg.physics_rate_hz, cfg.events_rate_hz),
+            "camera": (_period_steps(cfg.physics_rate_hz, self.camera_config.rate_hz)
+                       if self.camera_config.rate_hz > 0 else 0),
+        }
+        wall0, sim0 = time.monotonic(), self.world.time_s
+        while not self._stop.is_set() and self.context.ok():
+            try:
+                while self._commands:
+                    self._commands.popleft()()
+                if self.world.time_s < sim0:  # reset: restart pacing
+                    wall0, sim0 = time.monotonic(), self.world.time_s
+                self.world.step()
+                self._publish_due(every)
+            except Exception as err:  # never let the loop die silently
+                if not self.context.ok():
+                    break  # shutting down: publishers are gone
+                self.get_logger().error(f"sim loop error: {type(err).__name__}: {err}")
+            if cfg.real_time_factor > 0:
+                ahead = (self.world.time_s - sim0) / cfg.real_time_factor - (
+                    time.monotonic() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+                elif ahead < -1.0:  # fell behind (rendering, load): do not try to catch up
+                    wall0, sim0 = time.monotonic(), self.world.time_s
+
+    def _publish_due(self, every: dict[str, int]) -> None:
+        k = self.world.step_count
+        if k % every["clock"] == 0:
+            self.pub_clock.publish(Clock(clock=ns_to_stamp(self.world.time_ns)))
+        if k % every["state"] == 0:
+            self._publish_state()
+        if k % every["truth"] == 0:
+            self._publish_truth()
+        if k % every["events"] == 0:
+            self._publish_events()
+        if every["camera"] and k % every["camera"] == 0:
+            self._publish_camera()
+
+    def _publish_state(self) -> None:
+        stamp = ns_to_stamp(self.world.time_ns)
+        names, q, v = self.world.joint_state()
+        self.pub_joints.publish(joint_state_msg(stamp, names, q, v))
+        position, quat = self.world.tcp_pose()
+        self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat))
+
+    def _publish_truth(self) -> None:
+        truth = BlockSet(tuple(self.world.block_poses()), self.world.time_ns, "world",
+                         self.scene.block_size)
+        self.pub_truth.publish(block_set_to_markers(truth))
+
+    def _publish_events(self) -> None:
+        self.pub_events.publish(String(data=json.dumps(self.world.monitor.summary())))
+
+    def _publish_camera(self) -> int:
+        stamp_ns = self.world.time_ns
+        rgb = self.world.render()
+        stamp = ns_to_stamp(stamp_ns)
+        self.pub_image.publish(image_msg(stamp, rgb))
+        self.pub_info.publish(camera_info_msg(stamp, self.world.camera))
+        return stamp_ns
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=10.0)
+        self.world.close()
+        super().destroy_node()
+
+
+def _period_steps(physics_hz: float, rate_hz: float) -> int:
+    return max(1, round(physics_hz / rate_hz))
+
+
+TOPICS = """
+subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world), /gripper/command
+  (std_msgs/Float64, gap m), /executor/status (std_msgs/String JSON), /sim/disturb (String JSON)
+publishes:  /clock, /joint_states, /tcp_pose, /camera/image_raw (rgb8), /camera/camera_info,
+  /sim/ground_truth (MarkerArray), /sim/events (String JSON)
+services:   /sim/reset, /camera/trigger (std_srvs/Trigger)
+"""
+
+SPEC = NodeSpec(
+    "sim",
+    SimNode,
+    "The simulated UR10e cell (PyBullet): arm controller with IK, 2F-85 gripper, tagged "
+    "blocks, overhead camera, event monitor.",
+    configs=(("", SimConfig), ("camera.", CameraConfig), ("random.", RandomSceneConfig)),
+    topics=TOPICS,
+)
+
+
+def main(args: Any = None) -> int:
+    return run_node(SPEC, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

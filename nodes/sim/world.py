@@ -1,0 +1,305 @@
+"""``SimWorld``: the PyBullet cell (table, UR10e + 2F-85, tagged blocks, overhead camera).
+
+One world owns one PyBullet client (``self.client``, a ``BulletClient`` in DIRECT mode: no
+global client, several worlds can live in one process) and is driven by one thread.
+Blocks move only through contact: after ``reset`` nothing ever sets a block's pose, and
+nothing welds a block to the gripper; a grasp holds by finger force and pad friction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet
+from pybullet_utils import bullet_client
+
+from msgs_py import BlockPose, Scene
+from nodes.common.paths import asset_path
+from nodes.sim import robot_model as rm
+from nodes.sim.camera import CameraModel, render_rgb
+from nodes.sim.config import SimConfig
+from nodes.sim.controller import ArmController, SetpointResult, clip_gripper_gap
+from nodes.sim.events import ContactKind, EventMonitor
+
+TABLE_RGBA = (0.62, 0.50, 0.38, 1.0)  # MDF
+GRAVITY = 9.81
+#: /sim/disturb: the "hand" pushes at this speed and gives up after this long.
+DISTURB_SPEED = 0.05
+DISTURB_TIMEOUT_S = 10.0
+DISTURB_MAX_FORCE = 5.0
+#: N, strength of the constraint that couples the fingers (well above any grip force).
+FINGER_COUPLING_FORCE = 500.0
+
+
+@dataclass
+class _Disturbance:
+    start: np.ndarray
+    direction: np.ndarray
+    distance: float
+    t_end: float
+
+
+class SimWorld:
+    """The simulated cell; ``step()`` advances physics by one ``config.dt``."""
+
+    def __init__(self, config: SimConfig, camera: CameraModel, scene: Scene,
+                 noise_std: float = 0.0) -> None:
+        self.config = config
+        self.camera = camera
+        self.noise_std = noise_std
+        self.rng = np.random.default_rng(config.seed)
+        self.client = bullet_client.BulletClient(connection_mode=pybullet.DIRECT)
+        self.client.setPhysicsEngineParameter(
+            fixedTimeStep=config.dt, numSolverIterations=config.solver_iterations,
+            deterministicOverlappingPairs=1)
+        self.client.setGravity(0, 0, -GRAVITY)
+        self._textures: dict[int, int] = {}
+        self._block_visual = self.client.createVisualShape(
+            pybullet.GEOM_MESH, fileName=str(asset_path("block.obj")), meshScale=[1, 1, 1])
+        self._block_collision = self.client.createCollisionShape(
+            pybullet.GEOM_BOX, halfExtents=[rm.BLOCK_SIZE / 2] * 3)
+        self._make_table()
+        self._make_robot()
+        self.controller = ArmController(config.home_joints, config.min_tcp_z,
+                                        config.speed_scale)
+        self.block_bodies: dict[int, int] = {}
+        self.scene = scene
+        self.monitor: EventMonitor | None = None
+        self.reset(scene)
+
+    # --- building -------------------------------------------------------------------------------
+    def _make_table(self) -> None:
+        x0, x1, y0, y1 = rm.TABLE_EXTENT
+        half = [(x1 - x0) / 2, (y1 - y0) / 2, rm.TABLE_THICKNESS / 2]
+        centre = [(x0 + x1) / 2, (y0 + y1) / 2, -rm.TABLE_THICKNESS / 2]
+        c = self.client
+        self.table = c.createMultiBody(
+            0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half),
+            c.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=TABLE_RGBA),
+            basePosition=centre)
+        c.changeDynamics(self.table, -1, lateralFriction=rm.FRICTION_TABLE)
+
+    def _make_robot(self) -> None:
+        c = self.client
+        self.robot = c.loadURDF(str(asset_path("ur10e_2f85.urdf")), [0, 0, 0], [0, 0, 0, 1],
+                                useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+        by_name = {}
+        self.link_index: dict[str, int] = {}
+        for j in range(c.getNumJoints(self.robot)):
+            info = c.getJointInfo(self.robot, j)
+            by_name[info[1].decode()] = j
+            self.link_index[info[12].decode()] = j
+        self.arm_joints = [by_name[n] for n in rm.ARM_JOINTS]
+        self.finger_joints = [by_name[n] for n in rm.FINGER_JOINTS]
+        self.tcp_link = self.link_index["tcp"]
+        self.finger_links = set(self.finger_joints)
+        gripper_links = {self.link_index[n] for n in ("tool0", "gripper_body", "tcp")}
+        self.link_kind = {j: ContactKind.ARM for j in range(-1, c.getNumJoints(self.robot))}
+        self.link_kind.update({j: ContactKind.GRIPPER for j in gripper_links})
+        self.link_kind.update({j: ContactKind.FINGER for j in self.finger_links})
+        for j in self.finger_links:
+            # Friction anchors keep a held block from creeping and rolling between the pads.
+            c.changeDynamics(self.robot, j, lateralFriction=rm.FRICTION_PAD, frictionAnchor=1)
+        for j in range(-1, c.getNumJoints(self.robot)):
+            c.changeDynamics(self.robot, j, linearDamping=0.0, angularDamping=0.0)
+        # The 2F-85's linkage moves both fingers together (one motor): a gear constraint keeps
+        # them symmetric, so a held block stays centred and cannot drift along the closing axis.
+        gear = c.createConstraint(self.robot, self.finger_joints[0], self.robot,
+                                  self.finger_joints[1], pybullet.JOINT_GEAR, [1, 0, 0],
+                                  [0, 0, 0], [0, 0, 0])
+        c.changeConstraint(gear, gearRatio=-1, maxForce=FINGER_COUPLING_FORCE, erp=0.2,
+                           relativePositionTarget=0.0)
+
+    def _texture(self, tag_id: int) -> int:
+        if tag_id not in self._textures:
+            path = asset_path(f"tags/tag36h11_{tag_id:03d}.png")
+            if not path.exists():
+                raise ValueError(f"no tag texture for block id {tag_id} ({path})")
+            self._textures[tag_id] = self.client.loadTexture(str(path))
+        return self._textures[tag_id]
+
+    def _spawn_block(self, block: BlockPose) -> int:
+        c = self.client
+        s = rm.BLOCK_SIZE
+        quat = (0.0, 0.0, math.sin(block.theta / 2), math.cos(block.theta / 2))
+        body = c.createMultiBody(rm.BLOCK_MASS, self._block_collision, self._block_visual,
+                                 basePosition=[block.x, block.y, s / 2], baseOrientation=quat)
+        c.changeVisualShape(body, -1, textureUniqueId=self._texture(block.id),
+                            rgbaColor=[1, 1, 1, 1])
+        c.changeDynamics(body, -1, lateralFriction=rm.FRICTION_BLOCK, linearDamping=0.0,
+                         angularDamping=0.0, frictionAnchor=1)
+        return body
+
+    # --- lifecycle ------------------------------------------------------------------------------
+    def reset(self, scene: Scene | None = None) -> None:
+        """Back to the start: arm at home, gripper open, the scene's blocks at their poses."""
+        if scene is not None:
+            self.scene = scene
+        c = self.client
+        for body in self.block_bodies.values():
+            c.removeBody(body)
+        self.block_bodies = {b.id: self._spawn_block(b) for b in self.scene.blocks}
+        self.body_to_block = {body: bid for bid, body in self.block_bodies.items()}
+        for j, q in zip(self.arm_joints, self.config.home_joints, strict=True):
+            c.resetJointState(self.robot, j, q, 0.0)
+        open_half = rm.GRIPPER_STROKE / 2
+        for j in self.finger_joints:
+            c.resetJointState(self.robot, j, open_half, 0.0)
+        self.controller.reset(self.config.home_joints)
+        self.gripper_gap = rm.GRIPPER_STROKE
+        self._apply_gripper()
+        self.disturbances: dict[int, _Disturbance] = {}
+        self.step_count = 0
+        self.monitor = EventMonitor(self.scene.workspace, rm.TABLE_EXTENT, rm.BLOCK_SIZE,
+                                    lost_margin=self.config.lost_margin)
+        rate = self.config.physics_rate_hz / self.config.contact_check_rate_hz
+        self._contact_every = max(1, round(rate))
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.disconnect()
+            self.client = None
+
+    @property
+    def time_s(self) -> float:
+        return self.step_count * self.config.dt
+
+    @property
+    def time_ns(self) -> int:
+        return round(self.step_count * 1e9 / self.config.physics_rate_hz)
+
+    # --- commands -------------------------------------------------------------------------------
+    def set_setpoint(self, position, quat_xyzw, frame_id: str = "world") -> SetpointResult:
+        return self.controller.set_setpoint(position, quat_xyzw, frame_id)
+
+    def set_gripper(self, gap: float) -> float:
+        """Command the gap between the pads (m, clipped to the stroke); returns the clipped gap."""
+        self.gripper_gap = clip_gripper_gap(gap)
+        self._apply_gripper()
+        return self.gripper_gap
+
+    def _apply_gripper(self) -> None:
+        for j in self.finger_joints:
+            self.client.setJointMotorControl2(
+                self.robot, j, pybullet.POSITION_CONTROL, targetPosition=self.gripper_gap / 2,
+                force=self.config.grip_force, maxVelocity=self.config.gripper_speed / 2)
+
+    def disturb(self, block_id: int, dx: float, dy: float) -> None:
+        """Push a block horizontally (an external force, physics only) by about (dx, dy)."""
+        if block_id not in self.block_bodies:
+            raise ValueError(f"no block with id {block_id}")
+        vec = np.array([dx, dy], dtype=float)
+        distance = float(np.linalg.norm(vec))
+        if not math.isfinite(distance) or distance > 0.5:
+            raise ValueError(f"disturbance ({dx}, {dy}) must be finite and at most 0.5 m")
+        if distance < 1e-4:
+            return
+        pos = self._block_position(block_id)
+        self.disturbances[block_id] = _Disturbance(pos[:2].copy(), vec / distance, distance,
+                                                   self.time_s + DISTURB_TIMEOUT_S)
+
+    def set_manipulated(self, block_id: int | None) -> None:
+        if self.monitor is not None:
+            self.monitor.manipulated = block_id
+
+    # --- stepping -------------------------------------------------------------------------------
+    def step(self, n: int = 1) -> None:
+        c = self.client
+        for _ in range(n):
+            q, v = self.controller.step(self.config.dt)
+            c.setJointMotorControlArray(
+                self.robot, self.arm_joints, pybullet.POSITION_CONTROL, targetPositions=q,
+                targetVelocities=v, forces=rm.JOINT_TORQUE_LIMIT)
+            if self.disturbances:
+                self._push_disturbed()
+            c.stepSimulation()
+            self.step_count += 1
+            if self.step_count % self._contact_every == 0:
+                self._check_events()
+
+    def _push_disturbed(self) -> None:
+        c = self.client
+        for block_id, d in list(self.disturbances.items()):
+            body = self.block_bodies[block_id]
+            pos = self._block_position(block_id)
+            moved = float(np.dot(pos[:2] - d.start, d.direction))
+            speed = float(np.dot(np.asarray(c.getBaseVelocity(body)[0][:2]), d.direction))
+            braking = speed * speed / (2 * rm.MU_WOOD_MDF * GRAVITY)
+            if moved + braking >= d.distance or self.time_s > d.t_end:
+                del self.disturbances[block_id]
+                continue
+            force = rm.BLOCK_MASS * (rm.MU_WOOD_MDF * GRAVITY + 20.0 * (DISTURB_SPEED - speed))
+            force = min(max(force, 0.0), DISTURB_MAX_FORCE)
+            f = (force * d.direction[0], force * d.direction[1], 0.0)
+            c.applyExternalForce(body, -1, f, pos.tolist(), pybullet.WORLD_FRAME)
+
+    def _check_events(self) -> None:
+        contacts = []
+        for pt in self.client.getContactPoints():
+            a = self._classify(pt[1], pt[3])
+            b = self._classify(pt[2], pt[4])
+            if a is not None and b is not None:
+                contacts.append((a, b))
+        moving = {}
+        for block_id, body in self.block_bodies.items():
+            pos, quat = self.client.getBasePositionAndOrientation(body)
+            lin, ang = self.client.getBaseVelocity(body)
+            moving[block_id] = (np.asarray(pos), np.asarray(quat),
+                                float(np.linalg.norm(lin)), float(np.linalg.norm(ang)))
+        self.monitor.update(self.time_s, contacts, moving)
+
+    def _classify(self, body: int, link: int) -> tuple[ContactKind, int] | None:
+        if body == self.robot:
+            return self.link_kind.get(link, ContactKind.ARM), link
+        if body in self.body_to_block:
+            return ContactKind.BLOCK, self.body_to_block[body]
+        return None  # the table
+
+    # --- state ----------------------------------------------------------------------------------
+    def joint_state(self) -> tuple[list[str], np.ndarray, np.ndarray]:
+        joints = self.arm_joints + self.finger_joints
+        states = self.client.getJointStates(self.robot, joints)
+        names = list(rm.ARM_JOINTS) + list(rm.FINGER_JOINTS)
+        return (names, np.array([s[0] for s in states]), np.array([s[1] for s in states]))
+
+    def arm_q(self) -> np.ndarray:
+        return np.array([s[0] for s in self.client.getJointStates(self.robot, self.arm_joints)])
+
+    def gap(self) -> float:
+        """Measured gap between the pads (m)."""
+        states = self.client.getJointStates(self.robot, self.finger_joints)
+        return float(states[0][0] + states[1][0])
+
+    def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Measured TCP (position, quaternion xyzw) in world."""
+        state = self.client.getLinkState(self.robot, self.tcp_link, computeForwardKinematics=1)
+        return np.asarray(state[4]), np.asarray(state[5])
+
+    def link_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        state = self.client.getLinkState(self.robot, self.link_index[name],
+                                         computeForwardKinematics=1)
+        return np.asarray(state[4]), np.asarray(state[5])
+
+    def _block_position(self, block_id: int) -> np.ndarray:
+        return np.asarray(self.client.getBasePositionAndOrientation(
+            self.block_bodies[block_id])[0])
+
+    def block_pose_3d(self, block_id: int) -> tuple[np.ndarray, np.ndarray]:
+        pos, quat = self.client.getBasePositionAndOrientation(self.block_bodies[block_id])
+        return np.asarray(pos), np.asarray(quat)
+
+    def block_poses(self) -> list[BlockPose]:
+        """True block poses (x, y, yaw of the block's x axis) in world."""
+        out = []
+        for block_id in sorted(self.block_bodies):
+            pos, quat = self.block_pose_3d(block_id)
+            m = np.asarray(self.client.getMatrixFromQuaternion(quat)).reshape(3, 3)
+            out.append(BlockPose(block_id, float(pos[0]), float(pos[1]),
+                                 math.atan2(m[1, 0], m[0, 0])))
+        return out
+
+    def render(self) -> np.ndarray:
+        """One overhead camera frame (H, W, 3) uint8; physics does not advance meanwhile."""
+        return render_rgb(self.client, self.camera, self.noise_std, self.rng)

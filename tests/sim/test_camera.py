@@ -1,0 +1,88 @@
+"""The overhead camera: tags land on the pixels the intrinsics predict, all are visible."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from msgs_py import load_scene
+from nodes.common.paths import config_path
+from nodes.sim import robot_model as rm
+from nodes.sim.config import CameraConfig, SimConfig
+from nodes.sim.world import SimWorld
+
+
+def detect(rgb: np.ndarray) -> dict[int, np.ndarray]:
+    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11)
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    corners, ids, _ = cv2.aruco.ArucoDetector(dictionary, params).detectMarkers(
+        cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY))
+    return {} if ids is None else {int(i): c[0] for i, c in zip(ids.ravel(), corners, strict=True)}
+
+
+@pytest.fixture(scope="module")
+def default_world():
+    world = SimWorld(SimConfig(), CameraConfig().model(),
+                     load_scene(config_path("scenes/default.yaml")))
+    world.step(24)
+    yield world
+    world.close()
+
+
+def tag_corners_world(world: SimWorld, block_id: int) -> np.ndarray:
+    """The tag's corners in OpenCV order (docs/contracts.md), in world."""
+    pos, quat = world.block_pose_3d(block_id)
+    rot = np.asarray(world.client.getMatrixFromQuaternion(quat)).reshape(3, 3)
+    h, top = rm.TAG_SIZE / 2, rm.BLOCK_SIZE / 2
+    local = np.array([[-h, h, top], [h, h, top], [h, -h, top], [-h, -h, top]])
+    return pos + local @ rot.T
+
+
+def test_every_tag_is_seen_with_the_arm_at_home(default_world):
+    seen = detect(default_world.render())
+    assert sorted(seen) == sorted(default_world.block_bodies)
+
+
+def test_tag_centres_and_corners_land_on_the_predicted_pixels(default_world):
+    seen = detect(default_world.render())
+    centre_errors = []
+    for block_id, corners_px in seen.items():
+        predicted = default_world.camera.project(tag_corners_world(default_world, block_id))
+        # corner order and orientation follow the contract ...
+        assert np.max(np.linalg.norm(corners_px - predicted, axis=1)) < 2.0
+        # ... and the centre is on the predicted pixel
+        centre_errors.append(np.linalg.norm(corners_px.mean(0) - predicted.mean(0)))
+    assert max(centre_errors) <= 1.0, centre_errors
+
+
+def test_a_tag_is_at_least_30_px_across_over_the_whole_workspace():
+    camera = CameraConfig().model()
+    ws = load_scene(config_path("scenes/default.yaml")).workspace
+    for x in (ws.x_min, ws.x_max):
+        for y in (ws.y_min, ws.y_max):
+            corners = np.array([[x - 0.02, y, rm.BLOCK_SIZE], [x + 0.02, y, rm.BLOCK_SIZE]])
+            uv = camera.project(corners)
+            assert np.linalg.norm(uv[0] - uv[1]) >= 30.0
+
+
+def test_pixel_noise_is_optional_and_seeded(default_world):
+    clean = default_world.render()
+    default_world.noise_std = 3.0
+    try:
+        noisy = default_world.render()
+    finally:
+        default_world.noise_std = 0.0
+    diff = noisy.astype(float) - clean.astype(float)
+    assert 2.0 < diff.std() < 4.0
+    assert np.array_equal(default_world.render(), clean)
+
+
+def test_camera_config_defaults_frame_the_default_workspace():
+    camera = CameraConfig().model()
+    assert camera.width == 1280 and camera.height == 960
+    footprint = camera.ground_footprint(0.0)
+    # long image side along world y, image "up" (row 0) towards +x
+    assert np.ptp(footprint[:, 1]) > np.ptp(footprint[:, 0])
+    assert footprint[0, 0] > footprint[3, 0]

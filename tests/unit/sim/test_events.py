@@ -1,0 +1,68 @@
+"""Event monitor logic: what counts as an unintended contact or a lost block, and how often."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from msgs_py import Workspace
+from nodes.sim.events import ContactKind, EventMonitor
+
+S = 0.0508
+UP = np.array([0.0, 0.0, 0.0, 1.0])
+FINGER = (ContactKind.FINGER, 7)
+
+
+def monitor() -> EventMonitor:
+    return EventMonitor(Workspace(0.45, 0.95, -0.35, 0.35), (-0.3, 1.4, -0.9, 0.9), S)
+
+
+def resting(x=0.7, y=0.0, quat=UP):
+    return (np.array([x, y, S / 2]), quat, 0.0, 0.0)
+
+
+def block(i):
+    return (ContactKind.BLOCK, i)
+
+
+def test_gripper_touching_the_manipulated_block_is_fine_any_other_counts_once():
+    m = monitor()
+    m.manipulated = 1
+    blocks = {1: resting(), 2: resting(0.8)}
+    m.update(0.0, [(FINGER, block(1))], blocks)
+    assert m.unintended_contacts == 0
+    for k in range(5):  # one long contact episode counts once
+        m.update(0.01 * k, [(block(2), FINGER)], blocks)
+    assert m.unintended_contacts == 1
+    m.update(1.0, [], blocks)  # apart long enough ...
+    events = m.update(1.01, [(FINGER, block(2))], blocks)  # ... a new episode
+    assert m.unintended_contacts == 2
+    assert events[0]["type"] == "unintended_contact" and events[0]["block"] == 2
+
+
+def test_blocks_touching_count_only_while_one_moves():
+    m = monitor()
+    still = {1: resting(), 2: resting(0.75)}
+    m.update(0.0, [(block(1), block(2))], still)
+    assert m.unintended_contacts == 0
+    moving = dict(still)
+    moving[1] = (still[1][0], UP, 0.05, 0.0)
+    m.update(0.02, [(block(1), block(2))], moving)
+    m.update(0.04, [(block(2), block(1))], moving)
+    assert m.unintended_contacts == 1
+    assert m.events[-1]["blocks"] == [1, 2]
+
+
+def test_lost_blocks_off_table_out_of_workspace_tipped_each_once():
+    m = monitor()
+    tipped = np.array([math.sin(math.pi / 4), 0.0, 0.0, math.cos(math.pi / 4)])
+    blocks = {1: (np.array([1.6, 0.0, -0.3]), UP, 1.0, 0.0), 2: resting(0.40),
+              3: resting(quat=tipped), 4: resting(0.46), 5: (np.array([0.7, 0, 0.2]), UP, 0.3, 0)}
+    m.update(0.0, [], blocks)
+    m.update(0.1, [], blocks)
+    reasons = {e["block"]: e["reason"] for e in m.events}
+    assert reasons == {1: "off the table", 2: "out of the workspace", 3: "tipped over"}
+    assert m.blocks_lost == 3
+    summary = m.summary()
+    assert summary["blocks_lost"] == 3 and summary["unintended_contacts"] == 0
