@@ -44,7 +44,7 @@ class ExecutorConfig:
         [-0.3, 1.4, -0.95, 0.95, 0.004, 0.9],
         "box every setpoint must stay in: x_min, x_max, y_min, y_max, z_min, z_max", unit="m")
     park_pose: tuple = param(
-        [0.30, -0.55, 0.45, 0.0], "TCP pose out of the camera's view: x, y, z, yaw",
+        [0.25, -0.55, 0.40, 0.0], "TCP pose out of the camera's view: x, y, z, yaw",
         unit="m, rad")
     pos_tolerance: float = param(
         0.002, "a block further than this from its expected pose needs a correction",

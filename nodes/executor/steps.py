@@ -89,18 +89,25 @@ class StepRunner:
         return "" if self.finished else self.steps[self.index].label
 
     def update(self, now: float, measured: ToolPose | None) -> Tick:
-        """Advance by time ``now`` (s); ``measured`` is the latest TCP (None if unknown)."""
+        """Advance by time ``now`` (s); ``measured`` is the latest TCP (None if unknown).
+
+        Steps that finish within this call hand their gripper command on, so a zero-wait
+        ``Grip`` followed at once by a move still reaches the gripper.
+        """
+        gripper: float | None = None
         while not self.finished:
             step = self.steps[self.index]
             if self._t0 is None:
                 refusal = self._begin(step, now)
                 if refusal:
-                    return Tick(self.commanded, None, False, error=refusal, label=step.label)
+                    return Tick(self.commanded, gripper, False, error=refusal, label=step.label)
             tick = self._update_step(step, now, measured)
+            if tick.gripper is not None:
+                gripper = tick.gripper
             if tick.error or not tick.done:
-                return tick
+                return Tick(tick.setpoint, gripper, tick.done, tick.error, tick.label)
             self._advance()
-        return Tick(self.commanded, None, True)
+        return Tick(self.commanded, gripper, True)
 
     # --- internals ------------------------------------------------------------------------------
     def _begin(self, step: Step, now: float) -> str:

@@ -172,3 +172,11 @@ def test_a_lagging_arm_delays_but_does_not_break_the_script():
 def test_config_rejects_a_park_pose_outside_the_safe_box():
     with pytest.raises(ValueError, match="park_pose"):
         ExecutorConfig(park_pose=(3.0, 0.0, 0.5, 0.0))
+
+
+def test_a_zero_wait_grip_still_reaches_the_gripper():
+    """Regression: the push's 'close to push' (no settle time) was swallowed by the next move."""
+    action = push()
+    stream = play(push_steps(action, action.from_, GEO, CFG, 0.0))
+    commands = [g for _, _, _, g in stream if g is not None]
+    assert commands == [GEO.push_opening]
