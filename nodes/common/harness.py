@@ -190,11 +190,10 @@ class RosHarness:
     def shutdown(self) -> None:
         self._stop.set()
         self._thread.join(timeout=10.0)
+        self.executor.shutdown()  # waits for callbacks still running in worker threads
         for node in reversed(self._nodes):
-            self.executor.remove_node(node)
             node.destroy_node()
         self._nodes.clear()
-        self.executor.shutdown()
         rclpy.try_shutdown(context=self.context)
 
     def __enter__(self) -> RosHarness:

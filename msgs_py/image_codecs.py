@@ -1,0 +1,97 @@
+"""Codecs between ``sensor_msgs/Image`` / ``CameraInfo`` and numpy / ``CameraIntrinsics``.
+
+Like ``ros_codecs``, this module touches ROS message classes (not rclpy) and is used at a
+node's edge only. Decoding validates everything a detector relies on (encoding, sizes,
+step, buffer length, a usable camera matrix) and raises ``MessageError`` naming the field.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sensor_msgs.msg import CameraInfo, Image
+
+from msgs_py.camera import CameraIntrinsics
+from msgs_py.errors import MessageError
+from msgs_py.ros_codecs import ns_to_stamp
+
+#: 8-bit encodings we read, with their channel counts.
+CHANNELS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}
+
+
+def image_to_array(msg: Image) -> np.ndarray:
+    """The image's pixels as H x W x C (or H x W for mono8) uint8, without copying.
+
+    Raises:
+        MessageError: an empty image, an unsupported encoding, a step or buffer length that
+            does not match width x height.
+    """
+    if msg.encoding not in CHANNELS:
+        raise MessageError("image.encoding", msg.encoding,
+                           f"unsupported encoding; expected one of {sorted(CHANNELS)}")
+    if msg.width == 0 or msg.height == 0:
+        raise MessageError("image.width x height", (msg.width, msg.height), "empty image")
+    channels = CHANNELS[msg.encoding]
+    row = msg.width * channels
+    if msg.step < row:
+        raise MessageError("image.step", msg.step, f"smaller than width x channels = {row}")
+    if len(msg.data) != msg.step * msg.height:
+        raise MessageError("image.data", f"<{len(msg.data)} bytes>",
+                           f"expected step x height = {msg.step * msg.height} bytes")
+    buffer = np.frombuffer(memoryview(msg.data), dtype=np.uint8)
+    rows = buffer.reshape(msg.height, msg.step)[:, :row]
+    if channels == 1:
+        return rows
+    return rows.reshape(msg.height, msg.width, channels)
+
+
+def array_to_image(pixels: np.ndarray, stamp_ns: int, frame_id: str = "camera_optical_frame",
+                   encoding: str = "rgb8") -> Image:
+    """An 8-bit H x W x C (or H x W) array as a ``sensor_msgs/Image``."""
+    pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
+    channels = 1 if pixels.ndim == 2 else pixels.shape[2]
+    if CHANNELS.get(encoding) != channels:
+        raise MessageError("encoding", encoding, f"does not fit {channels}-channel pixels")
+    msg = Image()
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = int(pixels.shape[0]), int(pixels.shape[1])
+    msg.encoding = encoding
+    msg.is_bigendian = 0
+    msg.step = msg.width * channels
+    msg.data = pixels.tobytes()
+    return msg
+
+
+def camera_info_to_intrinsics(msg: CameraInfo) -> CameraIntrinsics:
+    """Pinhole intrinsics from ``k``; refuses distortion (densepack's camera has none).
+
+    Raises:
+        MessageError: zero size, a non-positive or non-finite focal length, a malformed
+            ``k``, or non-zero distortion coefficients.
+    """
+    k = [float(v) for v in msg.k]
+    if len(k) != 9 or k[1] != 0.0 or k[3] != 0.0 or k[6:] != [0.0, 0.0, 1.0]:
+        raise MessageError("camera_info.k", k, "expected [fx, 0, cx, 0, fy, cy, 0, 0, 1]")
+    if any(float(v) != 0.0 for v in msg.d):
+        raise MessageError("camera_info.d", list(msg.d),
+                           "non-zero distortion is not supported (pinhole camera expected)")
+    if msg.width == 0 or msg.height == 0:
+        raise MessageError("camera_info.width x height", (msg.width, msg.height),
+                           "image size not set")
+    return CameraIntrinsics(int(msg.width), int(msg.height), k[0], k[4], k[2], k[5])
+
+
+def intrinsics_to_camera_info(intrinsics: CameraIntrinsics, stamp_ns: int,
+                              frame_id: str = "camera_optical_frame") -> CameraInfo:
+    """``CameraInfo`` as the contract fixes it: k and p from the intrinsics, d all zero."""
+    i = intrinsics
+    msg = CameraInfo()
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.header.frame_id = frame_id
+    msg.width, msg.height = i.width, i.height
+    msg.distortion_model = "plumb_bob"
+    msg.d = [0.0] * 5
+    msg.k = [i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0]
+    msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    msg.p = [i.fx, 0.0, i.cx, 0.0, 0.0, i.fy, i.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+    return msg

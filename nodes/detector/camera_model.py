@@ -1,0 +1,158 @@
+"""A calibrated pinhole camera: project world points, cast pixel rays onto a plane.
+
+The camera pose is that of ``camera_optical_frame`` in ``world`` (z forward, x right,
+y down); intrinsics follow OpenCV (pixel centres at integer coordinates). The calibration
+file is ROS ``--params-file`` YAML with ``camera_pose.position`` and
+``camera_pose.orientation_xyzw``, read by the detector and written by densepack-calibrate.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+
+from msgs_py import MessageError
+from msgs_py.camera import CameraIntrinsics, CameraPose
+from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
+
+
+def camera_matrix(intrinsics: CameraIntrinsics) -> np.ndarray:
+    return np.array(intrinsics.k, dtype=float).reshape(3, 3)
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    """Intrinsics plus ``world`` <- ``camera_optical_frame`` rotation and camera position."""
+
+    intrinsics: CameraIntrinsics
+    rotation: np.ndarray  # 3 x 3, columns = camera axes in world
+    position: np.ndarray  # 3, camera centre in world, m
+
+    @classmethod
+    def from_pose(cls, intrinsics: CameraIntrinsics, pose: CameraPose) -> CameraModel:
+        return cls(intrinsics, quaternion_to_matrix(pose.orientation_xyzw),
+                   np.asarray(pose.position, dtype=float))
+
+    @classmethod
+    def from_rvec_tvec(cls, intrinsics: CameraIntrinsics, rvec: np.ndarray,
+                       tvec: np.ndarray) -> CameraModel:
+        """From OpenCV's world -> camera (rvec, tvec), as solvePnP returns it."""
+        r_cw, _ = cv2.Rodrigues(np.asarray(rvec, dtype=float).reshape(3, 1))
+        t_cw = np.asarray(tvec, dtype=float).reshape(3)
+        return cls(intrinsics, r_cw.T, -r_cw.T @ t_cw)
+
+    @property
+    def k(self) -> np.ndarray:
+        return camera_matrix(self.intrinsics)
+
+    @property
+    def pose(self) -> CameraPose:
+        quat = matrix_to_quaternion(self.rotation)
+        return CameraPose(tuple(float(v) for v in self.position),
+                          tuple(float(v) for v in quat))
+
+    def rvec_tvec(self) -> tuple[np.ndarray, np.ndarray]:
+        """OpenCV's world -> camera transform (Rodrigues vector, translation)."""
+        r_cw = self.rotation.T
+        rvec, _ = cv2.Rodrigues(r_cw)
+        return rvec.reshape(3), -r_cw @ self.position
+
+    def to_camera(self, points_world: np.ndarray) -> np.ndarray:
+        return (np.asarray(points_world, dtype=float) - self.position) @ self.rotation
+
+    def project(self, points_world: np.ndarray) -> np.ndarray:
+        """World points (N x 3, m) -> pixels (N x 2); points behind the camera give NaN."""
+        pc = self.to_camera(points_world)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(pc[:, 2] > 0.0, pc[:, 2], np.nan)
+            u = self.intrinsics.fx * pc[:, 0] / z + self.intrinsics.cx
+            v = self.intrinsics.fy * pc[:, 1] / z + self.intrinsics.cy
+        return np.column_stack([u, v])
+
+    def rays(self, pixels: np.ndarray) -> np.ndarray:
+        """Unit-free ray directions in world (N x 3) through pixel coordinates (N x 2)."""
+        px = np.asarray(pixels, dtype=float).reshape(-1, 2)
+        d_cam = np.column_stack([
+            (px[:, 0] - self.intrinsics.cx) / self.intrinsics.fx,
+            (px[:, 1] - self.intrinsics.cy) / self.intrinsics.fy,
+            np.ones(len(px)),
+        ])
+        return d_cam @ self.rotation.T
+
+    def intersect_plane_z(self, pixels: np.ndarray, z: float) -> np.ndarray:
+        """Where the pixels' rays meet the horizontal plane at height ``z`` (N x 3, m).
+
+        Rays parallel to or pointing away from the plane give NaN.
+        """
+        d = self.rays(pixels)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (z - self.position[2]) / d[:, 2]
+        s = np.where(s > 0.0, s, np.nan)
+        return self.position + s[:, None] * d
+
+
+# --- the calibration file ------------------------------------------------------------------
+def read_ros_parameters(path: str | Path) -> dict:
+    """The parameters of a ``--params-file`` YAML, nested keys joined with dots.
+
+    ``camera_pose: {position: ...}`` and ``camera_pose.position: ...`` mean the same to ROS;
+    both come back as ``{"camera_pose.position": ...}``. Every node section is merged.
+    """
+    data = yaml.safe_load(Path(path).read_text()) or {}
+    params: dict = {}
+    for section in data.values() if isinstance(data, dict) else ():
+        if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
+            params.update(_flatten(section["ros__parameters"]))
+    return params
+
+
+def _flatten(tree: dict, prefix: str = "") -> dict:
+    out: dict = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_flatten(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
+def load_camera_pose(path: str | Path) -> CameraPose:
+    """Read ``camera_pose.*`` from a ``/**: ros__parameters:`` YAML file.
+
+    Raises:
+        MessageError: the file lacks the keys or holds a bad pose.
+        OSError: the file cannot be read.
+    """
+    params = read_ros_parameters(path)
+    try:
+        return CameraPose(tuple(params["camera_pose.position"]),
+                          tuple(params["camera_pose.orientation_xyzw"]))
+    except KeyError as err:
+        raise MessageError(str(path), None, f"missing parameter {err.args[0]}") from None
+    except TypeError as err:
+        raise MessageError(str(path), None, f"malformed camera pose: {err}") from None
+
+
+def save_camera_pose(path: str | Path, pose: CameraPose, comment: str = "") -> None:
+    """Write the calibration file the detector reads (ROS ``--params-file`` format)."""
+    px, py, pz = pose.position
+    qx, qy, qz, qw = pose.orientation_xyzw
+    lines = [
+        "# Pose of camera_optical_frame (z forward, x right, y down) in world, written by",
+        f"# densepack-calibrate on {dt.datetime.now(dt.UTC).isoformat(timespec='seconds')}.",
+    ]
+    lines += [f"# {line}" for line in comment.splitlines()]
+    lines += [
+        "/**:",
+        "  ros__parameters:",
+        f"    camera_pose.position: [{px:.6f}, {py:.6f}, {pz:.6f}]  # m, camera centre in world",
+        f"    camera_pose.orientation_xyzw: [{qx:.8f}, {qy:.8f}, {qz:.8f}, {qw:.8f}]"
+        "  # unit quaternion, world <- camera_optical_frame",
+    ]
+    Path(path).write_text("\n".join(lines) + "\n")

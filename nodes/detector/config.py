@@ -1,0 +1,88 @@
+"""The detector's parameters (one frozen dataclass; declared as ROS parameters by the node).
+
+Defaults agree with ``config/detector.yaml`` (a test checks it). The camera pose comes from
+``config/camera_calibration.yaml`` (``camera_pose.*``, written by densepack-calibrate): pass
+it as a second ``--params-file``, or leave the pose unset and the node reads
+``calibration_file`` itself. The detector never looks at the simulator's true camera pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from msgs_py import MessageError
+from msgs_py.camera import CameraPose
+from nodes.common.params import param
+from nodes.detector.estimate import ESTIMATORS
+from nodes.detector.id_sets import parse_id_set
+from nodes.detector.tags import REFINEMENTS
+
+UNSET_POSITION = (0.0, 0.0, 0.0)
+UNSET_ORIENTATION = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    refinement: str = param(
+        "edges", "corner refinement: edges (sub-pixel side line fits), apriltag, subpix, none")
+    decimate: float = param(
+        1.0, "coarse tag search on the image shrunk by this factor (>= 1); corners are "
+        "always refined at full resolution")
+    pose_method: str = param(
+        "plane", "block pose from corners: plane (rays meet the tag plane z = block_size) "
+        "or pnp (free 6-DoF pose per tag)")
+    max_reprojection_px: float = param(
+        1.0, "tags whose fitted pose reprojects worse than this (RMS over corners) are "
+        "dropped", unit="px")
+    allowed_ids: str = param(
+        "0-586", "tag ids that are blocks, e.g. '0-24,30'; other ids are warned about and "
+        "dropped")
+    expected_ids: str = param(
+        "", "ids known from the start (reported in 'missing' until seen), e.g. '0-8'; ids "
+        "seen since start or the last ~/reset are known too")
+    block_size: float = param(0.0508, "cube side; tags lie in the plane z = block_size",
+                              unit="m")
+    tag_size: float = param(0.040, "side of the tag's black square", unit="m")
+    calibration_file: str = param(
+        "camera_calibration.yaml", "calibration YAML read when camera_pose.* is not set "
+        "(relative paths are under config/)")
+    camera_position: tuple[float, ...] = param(
+        UNSET_POSITION, "camera_optical_frame origin in world (from the calibration file; "
+        "all zero = read calibration_file)", unit="m", name="camera_pose.position")
+    camera_orientation_xyzw: tuple[float, ...] = param(
+        UNSET_ORIENTATION, "camera_optical_frame orientation in world, quaternion x, y, z, w "
+        "(all zero = read calibration_file)", name="camera_pose.orientation_xyzw")
+
+    def __post_init__(self) -> None:
+        if self.refinement not in REFINEMENTS:
+            raise ValueError(f"parameter 'refinement': '{self.refinement}' is not one of "
+                             f"{sorted(REFINEMENTS)}")
+        if self.pose_method not in ESTIMATORS:
+            raise ValueError(f"parameter 'pose_method': '{self.pose_method}' is not one of "
+                             f"{sorted(ESTIMATORS)}")
+        if not self.decimate >= 1.0:
+            raise ValueError(f"parameter 'decimate': must be >= 1, got {self.decimate}")
+        if not self.max_reprojection_px > 0.0:
+            raise ValueError("parameter 'max_reprojection_px': must be > 0")
+        if not 0.0 < self.tag_size < self.block_size:
+            raise ValueError(f"parameters 'tag_size' ({self.tag_size}) and 'block_size' "
+                             f"({self.block_size}): need 0 < tag_size < block_size")
+        allowed = parse_id_set(self.allowed_ids, "allowed_ids")
+        expected = parse_id_set(self.expected_ids, "expected_ids")
+        if not expected <= allowed:
+            raise ValueError(f"parameter 'expected_ids': ids {sorted(expected - allowed)} "
+                             "are not in allowed_ids")
+        self.camera_pose_from_parameters()  # a malformed pose fails at startup
+
+    def camera_pose_from_parameters(self) -> CameraPose | None:
+        """The pose given as parameters, or None when they are left unset (all zero).
+
+        Raises:
+            ValueError: a pose that is set but malformed (names the parameter).
+        """
+        if all(v == 0.0 for v in self.camera_orientation_xyzw):
+            return None
+        try:
+            return CameraPose(tuple(self.camera_position), tuple(self.camera_orientation_xyzw))
+        except MessageError as err:
+            raise ValueError(f"parameter {err}") from None

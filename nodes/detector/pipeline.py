@@ -1,0 +1,121 @@
+"""One overhead image -> the blocks seen in it, with the bookkeeping a consumer needs.
+
+``BlockDetector`` finds the tags, refuses what cannot be trusted (ids outside the allowed
+set, an id seen twice in one frame, a fit whose reprojection error is above threshold) and
+tells seen blocks from known blocks that are *not* seen in this frame (``missing``): hidden
+by the arm, say. "Known" = the ``expected_ids`` given up front plus every id seen since
+start or since ``reset()``. Every refusal comes back as a warning string for the node to log.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from msgs_py import BlockPose, BlockSet
+from msgs_py.camera import CameraIntrinsics, CameraPose
+from nodes.detector.camera_model import CameraModel
+from nodes.detector.config import DetectorConfig
+from nodes.detector.estimate import ESTIMATORS
+from nodes.detector.id_sets import format_id_set, parse_id_set
+from nodes.detector.tags import FinderSettings, TagDetection, TagFinder
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """The outcome of one frame: the block set to publish and what was refused and why."""
+
+    blocks: BlockSet
+    warnings: tuple[str, ...] = ()
+    detections: tuple[TagDetection, ...] = ()
+    detect_s: float = 0.0  # wall time from pixels to poses
+    rejected: dict[int, str] = field(default_factory=dict)
+
+
+def to_gray(image: np.ndarray, encoding: str = "rgb8") -> np.ndarray:
+    """An 8-bit grey view of an rgb8/bgr8/rgba8/bgra8/mono8 array."""
+    if image.ndim == 2:
+        return image
+    code = {
+        "rgb8": cv2.COLOR_RGB2GRAY, "bgr8": cv2.COLOR_BGR2GRAY,
+        "rgba8": cv2.COLOR_RGBA2GRAY, "bgra8": cv2.COLOR_BGRA2GRAY,
+    }[encoding]
+    return cv2.cvtColor(image, code)
+
+
+class BlockDetector:
+    """Tags -> block poses in ``world`` for a camera at a calibrated pose."""
+
+    def __init__(self, config: DetectorConfig, camera_pose: CameraPose) -> None:
+        self.config = config
+        self.camera_pose = camera_pose
+        self.finder = TagFinder(FinderSettings(config.refinement, config.decimate))
+        self.estimator = ESTIMATORS[config.pose_method]
+        self.allowed = parse_id_set(config.allowed_ids, "allowed_ids")
+        self.expected = parse_id_set(config.expected_ids, "expected_ids")
+        self.seen: set[int] = set()
+        self._camera: CameraModel | None = None
+
+    @property
+    def known(self) -> frozenset[int]:
+        return frozenset(self.expected | self.seen)
+
+    def reset(self) -> None:
+        """Forget the blocks seen so far (a new scene); ``expected_ids`` stay known."""
+        self.seen.clear()
+
+    def camera(self, intrinsics: CameraIntrinsics) -> CameraModel:
+        if self._camera is None or self._camera.intrinsics != intrinsics:
+            self._camera = CameraModel.from_pose(intrinsics, self.camera_pose)
+        return self._camera
+
+    def process(self, image: np.ndarray, intrinsics: CameraIntrinsics, stamp_ns: int,
+                encoding: str = "rgb8") -> FrameResult:
+        """Detect the blocks in one image (H x W [x C], 8 bit) taken at ``stamp_ns``."""
+        start = time.perf_counter()
+        camera = self.camera(intrinsics)
+        detections = self.finder.find(to_gray(image, encoding))
+        warnings: list[str] = []
+        rejected: dict[int, str] = {}
+        counts = Counter(d.tag_id for d in detections)
+        unknown = sorted(i for i in counts if i not in self.allowed)
+        if unknown:
+            warnings.append(f"tag id(s) {unknown} outside allowed_ids "
+                            f"'{self.config.allowed_ids}': dropped")
+        duplicates = sorted(i for i, n in counts.items() if n > 1 and i in self.allowed)
+        if duplicates:
+            warnings.append(f"tag id(s) {duplicates} seen more than once in one frame: cannot "
+                            "tell the blocks apart, all copies dropped")
+            rejected.update({i: "duplicate" for i in duplicates})
+        blocks: list[BlockPose] = []
+        reprojection: dict[int, float] = {}
+        for det in detections:
+            if det.tag_id not in self.allowed or det.tag_id in rejected:
+                continue
+            est = self.estimator(camera, det.corners, self.config.block_size,
+                                 self.config.tag_size)
+            if not est.finite or est.reprojection_px > self.config.max_reprojection_px:
+                rejected[det.tag_id] = f"reprojection error {est.reprojection_px:.2f} px"
+                warnings.append(f"tag {det.tag_id}: reprojection error "
+                                f"{est.reprojection_px:.2f} px > max_reprojection_px "
+                                f"{self.config.max_reprojection_px}: dropped")
+                continue
+            blocks.append(BlockPose(det.tag_id, est.x, est.y, est.theta))
+            reprojection[det.tag_id] = round(est.reprojection_px, 4)
+        seen_now = {b.id for b in blocks}
+        self.seen |= seen_now | set(rejected)
+        missing = tuple(sorted(self.known - seen_now))
+        block_set = BlockSet(tuple(sorted(blocks, key=lambda b: b.id)), stamp_ns, "world",
+                             self.config.block_size, missing, reprojection)
+        return FrameResult(block_set, tuple(warnings), tuple(detections),
+                           time.perf_counter() - start, rejected)
+
+    def describe(self) -> str:
+        return (f"refinement={self.config.refinement} decimate={self.config.decimate} "
+                f"pose_method={self.config.pose_method} allowed_ids="
+                f"{format_id_set(self.allowed) or '(none)'} expected_ids="
+                f"{format_id_set(self.expected) or '(none)'}")

@@ -1,0 +1,111 @@
+"""Benchmark frames rendered by the simulator's own world and camera code.
+
+Kept apart from ``bench`` because it imports the sim (PyBullet): the world is the one the
+sim node runs, the camera is the true camera of ``config/sim.yaml``, the ground truth is
+what the sim publishes on ``/sim/ground_truth`` (``SimWorld.block_poses``). A segmentation
+render tells which tag squares are fully visible.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator
+
+import cv2
+import numpy as np
+import pybullet
+
+from msgs_py.camera import CameraIntrinsics, CameraPose
+from nodes.common.paths import config_path
+from nodes.common.transforms import tool_down_quaternion
+from nodes.detector.bench import Frame, scene_for
+from nodes.detector.camera_model import read_ros_parameters
+from nodes.detector.tag_geometry import tag_corners_world
+
+SETTLE_S = 0.25  # physics time before the first frame, s
+ARM_HOVER_Z = 0.10  # TCP height over the block the arm hides, m
+
+
+def _yaml_parameters(name: str) -> dict:
+    path = config_path(name)
+    return read_ros_parameters(path) if path.exists() else {}
+
+
+def config_from_parameters(cls, values: dict, prefix: str = ""):
+    """A params dataclass with the values config/sim.yaml gives (defaults otherwise)."""
+    kwargs = {}
+    for f in dataclasses.fields(cls):
+        meta = f.metadata.get("ros")
+        name = prefix + (meta.name if meta and meta.name else f.name)
+        if meta is not None and name in values:
+            default = f.default
+            value = values[name]
+            kwargs[f.name] = tuple(value) if isinstance(default, tuple | list) else value
+    return cls(**kwargs)
+
+
+def sim_frames(seeds, density: float, noise: float | None):
+    """(frames iterator, true camera pose) for the given seeds."""
+    from nodes.sim.config import CameraConfig, SimConfig
+    from nodes.sim.kinematics import pose_matrix, solve_tcp_ik
+    from nodes.sim.world import SimWorld
+
+    values = _yaml_parameters("sim.yaml")
+    sim_config = config_from_parameters(SimConfig, values)
+    camera_config = config_from_parameters(CameraConfig, values, "camera.")
+    camera = camera_config.model()
+    noise_std = camera_config.noise_std if noise is None else noise
+    intrinsics = CameraIntrinsics(camera.width, camera.height, camera.fx, camera.fy,
+                                  camera.cx, camera.cy)
+    true_pose = CameraPose(tuple(camera.position), tuple(camera.orientation_xyzw))
+
+    def frames() -> Iterator[Frame]:
+        for seed in seeds:
+            scene = scene_for(seed, density)
+            world = SimWorld(dataclasses.replace(sim_config, seed=seed), camera, scene,
+                             noise_std=noise_std)
+            try:
+                world.step(max(1, round(SETTLE_S / sim_config.dt)))
+                truth = {b.id: b for b in world.block_poses()}
+                parked = world.render()
+                visible = _fully_visible(world, camera, truth)
+                yield Frame("parked", parked, intrinsics, truth, visible,
+                            set(truth) - visible)
+                rng = np.random.default_rng(seed)
+                target = truth[int(rng.choice(sorted(truth)))]
+                ik = solve_tcp_ik(pose_matrix([target.x, target.y, ARM_HOVER_Z],
+                                              tool_down_quaternion(target.theta)),
+                                  world.controller.q_cmd)
+                if not ik.ok:
+                    continue
+                for joint, q in zip(world.arm_joints, ik.q, strict=True):
+                    world.client.resetJointState(world.robot, joint, float(q), 0.0)
+                image = world.render()
+                visible = _fully_visible(world, camera, truth)
+                yield Frame("arm over blocks", image, intrinsics, truth, visible,
+                            set(truth) - visible, warmup=parked)
+            finally:
+                world.close()
+
+    return frames(), true_pose
+
+
+def _fully_visible(world, camera, truth) -> set[int]:
+    """Ids whose whole tag square is the block's own pixels in a segmentation render."""
+    _, _, _, _, seg = world.client.getCameraImage(
+        camera.width, camera.height, camera.view_matrix(), camera.projection_matrix(),
+        renderer=pybullet.ER_TINY_RENDERER, shadow=0)
+    seg = np.asarray(seg).reshape(camera.height, camera.width)
+    visible = set()
+    for block_id, block in truth.items():
+        corners = camera.project(tag_corners_world(block))
+        if not np.all(np.isfinite(corners)):
+            continue
+        mask = np.zeros(seg.shape, np.uint8)
+        cv2.fillConvexPoly(mask, np.rint(corners).astype(np.int32), 1)
+        mask = cv2.erode(mask, np.ones((3, 3), np.uint8))
+        inside = mask.astype(bool)
+        in_view = np.all(camera.sees(tag_corners_world(block), margin_px=2.0))
+        if in_view and inside.any() and np.all(seg[inside] == world.block_bodies[block_id]):
+            visible.add(block_id)
+    return visible

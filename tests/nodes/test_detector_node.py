@@ -1,0 +1,219 @@
+"""densepack-detector spun in-process: synthetic frames in, MarkerArrays out, bad input survived."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import CameraInfo, Image
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import Marker, MarkerArray
+
+from msgs_py import BlockPose
+from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
+from msgs_py.ros_codecs import block_set_from_markers, ns_to_stamp, stamp_to_ns
+from nodes.common.qos import SENSOR
+from nodes.detector.node import DetectorNode
+from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
+
+pytestmark = pytest.mark.ros
+
+# A smaller frame than the cell's (640 x 480, same ground resolution) keeps DDS traffic light.
+CAMERA = overhead_camera(width=640, height=480, focal_px=1100.0)
+BLOCKS = [BlockPose(i, 0.62 + 0.08 * (i % 3), -0.12 + 0.12 * (i // 3), 0.5 * i - 2.0)
+          for i in range(6)]
+
+
+def params(**extra) -> list[Parameter]:
+    pose = CAMERA.pose
+    values = {"camera_pose.position": list(pose.position),
+              "camera_pose.orientation_xyzw": list(pose.orientation_xyzw),
+              "allowed_ids": "0-24"}
+    values.update(extra)
+    return [Parameter(k, value=v) for k, v in values.items()]
+
+
+def frame(blocks=BLOCKS, **kwargs) -> np.ndarray:
+    return render_blocks(CAMERA, blocks, RenderStyle(noise_std=2.0, blur_sigma_px=0.6),
+                         rng=np.random.default_rng(0), **kwargs)
+
+
+class Camera:
+    """Publishes image + camera_info pairs the way the sim does (same stamp)."""
+
+    def __init__(self, ros) -> None:
+        self.ros = ros
+        self.images = ros.publisher("/camera/image_raw", Image, SENSOR)
+        self.infos = ros.publisher("/camera/camera_info", CameraInfo, SENSOR)
+        ros.wait_for_subscribers(self.images)
+        ros.wait_for_subscribers(self.infos)
+        self.stamp_ns = 1_000_000_000
+
+    def send(self, pixels=None, stamp_ns=None, image=None, info=None, info_stamp_ns=None):
+        if stamp_ns is None:
+            self.stamp_ns += 100_000_000
+            stamp_ns = self.stamp_ns
+        info = info or intrinsics_to_camera_info(CAMERA.intrinsics, 0)
+        info.header.stamp = ns_to_stamp(stamp_ns if info_stamp_ns is None else info_stamp_ns)
+        image = image or array_to_image(pixels, 0)
+        image.header.stamp = ns_to_stamp(stamp_ns)
+        self.infos.publish(info)
+        self.images.publish(image)
+        return stamp_ns
+
+
+def detection(ros, camera: Camera, pixels, timeout=15.0) -> MarkerArray:
+    """Send the frame until a detection with its stamp comes back (sensor QoS may drop)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        stamp = camera.send(pixels)
+        try:
+            return ros.wait_for_message(
+                "/blocks/detected", MarkerArray, timeout=1.0,
+                predicate=lambda m, s=stamp: bool(m.markers)
+                and stamp_to_ns(m.markers[0].header.stamp) == s)
+        except TimeoutError:
+            continue
+    raise TimeoutError("no detection for the frames sent")
+
+
+def wait_for_warning(node, text: str, timeout=10.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if any(text in w for w in node.recent_warnings):
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"no warning containing '{text}' in {list(node.recent_warnings)}")
+
+
+def collect(ros) -> list:
+    """Every /blocks/detected message from now on (the subscription lives as long as the
+    harness: destroying it while the executor spins would race)."""
+    published: list = []
+    ros.probe.create_subscription(MarkerArray, "/blocks/detected", published.append, 10)
+    return published
+
+
+@pytest.fixture
+def setup(ros):
+    node = ros.add(DetectorNode(context=ros.context, parameter_overrides=params()))
+    return node, Camera(ros)
+
+
+def test_a_frame_becomes_a_marker_array_with_the_right_ids(ros, setup):
+    _node, camera = setup
+    msg = detection(ros, camera, frame())
+    blocks = block_set_from_markers(msg)
+    assert blocks.ids == [b.id for b in BLOCKS] and blocks.frame_id == "world"
+    for b in BLOCKS:
+        got = blocks.by_id()[b.id]
+        assert math.hypot(got.x - b.x, got.y - b.y) < 1e-3
+        assert abs(math.remainder(got.theta - b.theta, 2 * math.pi)) < math.radians(0.5)
+    assert set(blocks.reprojection_px) == set(blocks.ids)
+
+
+def test_a_hidden_block_is_a_delete_marker(ros, setup):
+    _node, camera = setup
+    detection(ros, camera, frame())
+    h = BLOCKS[2]
+    arm = np.array([[h.x - 0.04, h.y - 0.04, 0.4], [h.x + 0.04, h.y - 0.04, 0.4],
+                    [h.x + 0.04, h.y + 0.04, 0.4], [h.x - 0.04, h.y + 0.04, 0.4]])
+    msg = detection(ros, camera, frame(occluders=[arm]))
+    deletes = [m.id for m in msg.markers if m.action == Marker.DELETE]
+    assert deletes == [h.id]
+    assert block_set_from_markers(msg).missing == (h.id,)
+    reply = ros.call_service("/detector/reset", Trigger)
+    assert reply.success
+    msg = detection(ros, camera, frame(occluders=[arm]))
+    assert not [m for m in msg.markers if m.action == Marker.DELETE]
+
+
+def test_duplicate_and_unknown_ids_are_dropped(ros, setup):
+    node, camera = setup
+    blocks = [BlockPose(1, 0.62, -0.1, 0.0), BlockPose(1, 0.78, 0.1, 0.3),
+              BlockPose(30, 0.7, 0.12, 0.0), BlockPose(2, 0.7, -0.12, 0.5)]
+    msg = detection(ros, camera, frame(blocks))
+    assert block_set_from_markers(msg).ids == [2]
+    wait_for_warning(node, "more than once")
+    wait_for_warning(node, "outside allowed_ids")
+
+
+def _bad_images():
+    good = array_to_image(frame(), 0)
+    wrong_encoding = array_to_image(frame(), 0)
+    wrong_encoding.encoding = "16UC1"
+    truncated = array_to_image(frame(), 0)
+    truncated.data = bytes(truncated.data[:1000])
+    small = array_to_image(frame()[:240, :320].copy(), 0)
+    empty = Image(encoding="rgb8")
+    return good, {"16UC1": wrong_encoding, "image.data": truncated, "differs from camera_info":
+                  small, "empty image": empty}
+
+
+def test_bad_frames_are_skipped_with_a_warning_and_nothing_stale_is_published(ros, setup):
+    node, camera = setup
+    detection(ros, camera, frame())
+    _, bad = _bad_images()
+    published = collect(ros)
+    for text, image in bad.items():
+        camera.send(image=image)
+        wait_for_warning(node, text)
+    bad_info = intrinsics_to_camera_info(CAMERA.intrinsics, 0)
+    bad_info.k = [0.0] * 9
+    camera.send(frame(), info=bad_info)
+    wait_for_warning(node, "camera_info.k")
+    time.sleep(0.3)
+    assert published == []  # not one message for a bad frame
+    assert block_set_from_markers(detection(ros, camera, frame())).ids == [0, 1, 2, 3, 4, 5]
+
+
+def test_images_without_matching_camera_info_are_not_processed(ros, setup):
+    node, camera = setup
+    published = collect(ros)
+    pixels = frame()
+    for _ in range(8):
+        camera.stamp_ns += 100_000_000
+        camera.send(pixels, stamp_ns=camera.stamp_ns, info_stamp_ns=camera.stamp_ns + 1)
+        time.sleep(0.1)
+    wait_for_warning(node, "no camera_info")
+    assert published == [] and node.frames == 0
+
+
+def test_a_frame_older_than_the_last_one_is_not_published(ros, setup):
+    node, camera = setup
+    detection(ros, camera, frame())
+    old = camera.stamp_ns - 50_000_000
+    frames_before = node.frames
+    camera.send(frame(), stamp_ns=old)
+    wait_for_warning(node, "not newer than the last frame")
+    assert node.frames == frames_before
+
+
+def test_without_a_camera_pose_the_node_refuses_to_start(ros, tmp_path):
+    overrides = [Parameter("calibration_file", value=str(tmp_path / "none.yaml"))]
+    with pytest.raises(ValueError, match="densepack-calibrate"):
+        DetectorNode(context=ros.context, parameter_overrides=overrides)
+
+
+def test_a_simulation_reset_restarts_the_stamps_without_losing_frames(ros):
+    from rosgraph_msgs.msg import Clock
+
+    node = ros.add(DetectorNode(context=ros.context,
+                                parameter_overrides=params(use_sim_time=True)))
+    camera = Camera(ros)
+    clock = ros.publisher("/clock", Clock)
+    ros.wait_for_subscribers(clock)
+    clock.publish(Clock(clock=ns_to_stamp(800_000_000)))
+    camera.stamp_ns = 800_000_000
+    first = stamp_to_ns(detection(ros, camera, frame()).markers[0].header.stamp)
+    # the sim restarts its time at 0: frames stamped 0.1 s are new frames, not stale ones
+    # (a jump back this small is told from a late frame only by /clock)
+    clock.publish(Clock(clock=ns_to_stamp(50_000_000)))
+    time.sleep(0.2)
+    camera.stamp_ns = 0
+    msg = detection(ros, camera, frame())
+    assert stamp_to_ns(msg.markers[0].header.stamp) < first
+    wait_for_warning(node, "the clock jumped back")

@@ -1,0 +1,60 @@
+"""sim -> detector -> /blocks/detected, and densepack-calibrate against the sim, in-process."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+from visualization_msgs.msg import MarkerArray
+
+from msgs_py.ros_codecs import block_set_from_markers, stamp_to_ns
+from nodes.common.paths import config_path
+from nodes.common.transforms import quaternion_to_matrix, rotation_angle
+from nodes.detector.calibrate_cli import CalibrateNode
+from nodes.detector.camera_model import load_camera_pose
+from nodes.detector.node import DetectorNode
+from nodes.sim.node import SimNode
+
+pytestmark = pytest.mark.ros
+
+
+def calibration_params() -> list[Parameter]:
+    pose = load_camera_pose(config_path("camera_calibration.yaml"))
+    return [Parameter("camera_pose.position", value=list(pose.position)),
+            Parameter("camera_pose.orientation_xyzw", value=list(pose.orientation_xyzw))]
+
+
+def test_sim_frames_become_detections_matching_the_ground_truth(ros):
+    sim = ros.add(SimNode(context=ros.context))
+    ros.add(DetectorNode(context=ros.context, parameter_overrides=calibration_params()))
+    ids = sorted(b.id for b in sim.scene.blocks)
+    msg = ros.wait_for_message("/blocks/detected", MarkerArray, timeout=60,
+                               predicate=lambda m: len(m.markers) == len(ids))
+    detected = block_set_from_markers(msg)
+    assert detected.ids == ids and detected.missing == ()
+    stamp = stamp_to_ns(msg.markers[0].header.stamp)
+    truth = block_set_from_markers(ros.wait_for_message(
+        "/sim/ground_truth", MarkerArray, timeout=30,
+        predicate=lambda m: m.markers and stamp_to_ns(m.markers[0].header.stamp) >= stamp))
+    for b in truth.blocks:  # the blocks rest: the truth a little later is the truth then
+        got = detected.by_id()[b.id]
+        assert math.hypot(got.x - b.x, got.y - b.y) < 1e-3
+        assert abs(math.degrees(math.remainder(got.theta - b.theta, 2 * math.pi))) < 0.5
+
+
+def test_calibrate_recovers_the_sim_camera_pose(ros, tmp_path):
+    sim = ros.add(SimNode(context=ros.context, parameter_overrides=[
+        Parameter("scene_file", value="scenes/calibration.yaml")]))
+    node = ros.add(CalibrateNode(context=ros.context, parameter_overrides=[
+        Parameter("frames", value=3), Parameter("output_file", value=str(tmp_path / "c.yaml"))]))
+    assert node.done.wait(60.0)
+    result = node.solve()
+    true = sim.camera_config
+    assert np.linalg.norm(result.camera.position - np.asarray(true.position)) < 2e-3
+    assert math.degrees(rotation_angle(result.camera.rotation,
+                                       quaternion_to_matrix(true.orientation_xyzw))) < 0.2
+    node.write(result)
+    assert load_camera_pose(tmp_path / "c.yaml").position == pytest.approx(
+        tuple(result.camera.position), abs=1e-6)

@@ -1,0 +1,80 @@
+"""Pinhole projection, ray-plane intersection and the calibration file."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from msgs_py import MessageError
+from msgs_py.camera import CameraIntrinsics, CameraPose
+from nodes.detector.camera_model import CameraModel, load_camera_pose, save_camera_pose
+from nodes.detector.synthetic import overhead_camera
+
+
+def test_overhead_camera_orientation_matches_the_contract():
+    cam = overhead_camera()
+    # image up (-v) is world +x, the long side (u) runs along world y, looking down
+    centre = cam.project(np.array([[0.70, 0.0, 0.0]]))[0]
+    up = cam.project(np.array([[0.80, 0.0, 0.0]]))[0]
+    right = cam.project(np.array([[0.70, -0.1, 0.0]]))[0]
+    assert centre == pytest.approx([cam.intrinsics.cx, cam.intrinsics.cy])
+    assert up[1] < centre[1] and up[0] == pytest.approx(centre[0])
+    assert right[0] > centre[0] and right[1] == pytest.approx(centre[1])
+
+
+def test_rays_meet_the_plane_where_the_points_were():
+    cam = overhead_camera()
+    pts = np.array([[0.5, -0.3, 0.0508], [0.9, 0.25, 0.0508], [0.7, 0.0, 0.0508]])
+    back = cam.intersect_plane_z(cam.project(pts), 0.0508)
+    np.testing.assert_allclose(back, pts, atol=1e-12)
+
+
+def test_rvec_tvec_round_trip():
+    cam = overhead_camera()
+    rvec, tvec = cam.rvec_tvec()
+    again = CameraModel.from_rvec_tvec(cam.intrinsics, rvec, tvec)
+    np.testing.assert_allclose(again.rotation, cam.rotation, atol=1e-12)
+    np.testing.assert_allclose(again.position, cam.position, atol=1e-12)
+
+
+def test_points_behind_the_camera_do_not_project():
+    cam = overhead_camera()
+    assert np.all(np.isnan(cam.project(np.array([[0.7, 0.0, 2.0]]))))
+
+
+def test_calibration_file_round_trip(tmp_path):
+    pose = CameraPose((0.71, -0.02, 1.28), (0.0, 0.0, math.sin(0.1), math.cos(0.1)))
+    path = tmp_path / "cal.yaml"
+    save_camera_pose(path, pose, comment="test")
+    back = load_camera_pose(path)
+    np.testing.assert_allclose(back.position, pose.position, atol=1e-6)
+    np.testing.assert_allclose(back.orientation_xyzw, pose.orientation_xyzw, atol=1e-8)
+    assert "/**:" in path.read_text() and "ros__parameters:" in path.read_text()
+
+
+def test_calibration_file_without_the_pose_is_refused(tmp_path):
+    path = tmp_path / "cal.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    camera_pose.position: [0, 0, 1]\n")
+    with pytest.raises(MessageError, match=r"camera_pose\.orientation_xyzw"):
+        load_camera_pose(path)
+
+
+def test_bad_intrinsics_and_poses_are_refused():
+    with pytest.raises(MessageError, match="fx"):
+        CameraIntrinsics(640, 480, 0.0, 500.0, 320.0, 240.0)
+    with pytest.raises(MessageError, match="unit quaternion"):
+        CameraPose((0, 0, 1), (0, 0, 0, 2))
+
+
+def test_nested_and_dotted_parameter_files_read_the_same(tmp_path):
+    nested = tmp_path / "nested.yaml"
+    nested.write_text("/**:\n  ros__parameters:\n    camera_pose:\n"
+                      "      position: [0.7, 0.0, 1.25]\n"
+                      "      orientation_xyzw: [0.7071068, -0.7071068, 0.0, 0.0]\n")
+    pose = load_camera_pose(nested)
+    assert pose.position == (0.7, 0.0, 1.25)
+    np.testing.assert_allclose(
+        CameraModel.from_pose(overhead_camera().intrinsics, pose).rotation,
+        overhead_camera().rotation, atol=1e-6)  # q and -q: the nominal overhead camera
