@@ -64,6 +64,7 @@ class SimNode(Node):
                               noise_std=self.camera_config.noise_std)
         self._commands: collections.deque[Callable[[], None]] = collections.deque()
         self._stop = threading.Event()
+        self._blackout_until_ns = 0
         self._make_interfaces()
         self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
         self._thread.start()
@@ -98,6 +99,8 @@ class SimNode(Node):
         self.create_subscription(String, "/executor/status", self._on_status, RELIABLE,
                                  callback_group=group)
         self.create_subscription(String, "/sim/disturb", self._on_disturb, RELIABLE,
+                                 callback_group=group)
+        self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
                                  callback_group=group)
         self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
         self.create_service(Trigger, "/camera/trigger", self._on_trigger, callback_group=group)
@@ -145,6 +148,18 @@ class SimNode(Node):
                 self.world.disturb(block, dx, dy)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/disturb refused: {err}")
+        self._commands.append(apply)
+
+    def _on_blackout(self, msg: Float64) -> None:
+        """Fault injection: drop every camera frame for the next ``msg.data`` sim seconds."""
+        seconds = float(msg.data)
+        if not math.isfinite(seconds) or seconds < 0:
+            self.get_logger().warning(f"/sim/camera_blackout refused: {seconds} s")
+            return
+
+        def apply() -> None:
+            self._blackout_until_ns = self.world.time_ns + round(seconds * 1e9)
+            self.get_logger().warning(f"camera frames dropped for {seconds:.1f} s (fault)")
         self._commands.append(apply)
 
     def _on_reset(self, request, response):
@@ -238,6 +253,8 @@ class SimNode(Node):
 
     def _publish_camera(self) -> int:
         stamp_ns = self.world.time_ns
+        if stamp_ns < self._blackout_until_ns:
+            return stamp_ns  # a dropped frame: nothing rendered, nothing published
         rgb = self.world.render()
         stamp = ns_to_stamp(stamp_ns)
         self.pub_image.publish(image_msg(stamp, rgb))
@@ -258,7 +275,8 @@ def _period_steps(physics_hz: float, rate_hz: float) -> int:
 
 TOPICS = """
 subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world), /gripper/command
-  (std_msgs/Float64, gap m), /executor/status (std_msgs/String JSON), /sim/disturb (String JSON)
+  (std_msgs/Float64, gap m), /executor/status (std_msgs/String JSON), /sim/disturb (String JSON),
+  /sim/camera_blackout (std_msgs/Float64, s: drop camera frames, fault injection)
 publishes:  /clock, /joint_states, /tcp_pose, /camera/image_raw (rgb8), /camera/camera_info,
   /sim/ground_truth (MarkerArray), /sim/events (String JSON)
 services:   /sim/reset, /camera/trigger (std_srvs/Trigger)
