@@ -1,0 +1,122 @@
+"""Planner parameters: gripper geometry, costs, sampling, search bounds and the options.
+
+One frozen dataclass, ``PlannerConfig``, is both the ROS parameter set of the planner node
+(``declare_config``) and the argument of the pure planner. ``config/planner.yaml`` carries the
+same defaults (a unit test checks they agree). The physical reason of each geometric value is
+in its description; the figures follow a Robotiq 2F-85-class gripper as the sim models it
+(docs/contracts.md "Gripper": 85 mm stroke, fingers 14 mm thick along the closing axis and
+22 mm wide across it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+from nodes.common.params import param
+
+#: Stroke of a 2F-85-class gripper (m): the widest opening the fingers reach.
+GRIPPER_STROKE = 0.085
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    # --- gripper geometry (docs/contracts.md "Plans and how the executor reads them") -------
+    finger_thickness: float = param(
+        0.014, "finger size along the closing axis (2F-85 phalanx + pad; docs/contracts.md)",
+        unit="m")
+    finger_width: float = param(
+        0.022, "finger pad size across the closing axis (2F-85 pad is ~22 mm wide)", unit="m")
+    approach_clearance: float = param(
+        0.009, "gap between each finger and the block face as the open gripper descends: "
+        "covers perception error (a few mm) and finger flex; opening = s + 2*clearance",
+        unit="m")
+    push_opening: float = param(
+        0.020, "finger gap during a push: both tips on the rear face (needs "
+        "push_opening/2 + finger_thickness <= s/2) and far enough apart to stop the block "
+        "from turning", unit="m")
+    push_contact_depth: float = param(
+        0.010, "gap between fingertips and the rear face when the fingers descend behind a "
+        "block before a push, so they never land on it", unit="m")
+    table_margin: float = param(
+        0.05, "how far the table extends past the block workspace on every side: fingers "
+        "may stand there, blocks may not", unit="m")
+    # --- cost (DESIGN §6) ---------------------------------------------------------------------
+    a1: float = param(1.0, "cost of one pick-and-place action")
+    a2: float = param(1.5, "cost of one push (> a1: pushes are less precise)")
+    a3: float = param(1.5, "cost per movable block an action collides with (Nc)")
+    distance_cost: bool = param(
+        True, "option: add a_dist * distance moved and a_push_len * push length to each edge")
+    a_dist: float = param(1.0, "cost per metre the block moves (with distance_cost)", unit="1/m")
+    a_push_len: float = param(
+        2.0, "extra cost per metre pushed (with distance_cost): long pushes drift", unit="1/m")
+    # --- roadmap sampling ---------------------------------------------------------------------
+    n_samples: int = param(80, "N: poses sampled per single-block roadmap")
+    eps: float = param(0.3, "probability that a sample lies on a push line through the goal")
+    eps_start: float = param(
+        0.05, "probability that a sample lies on a push line through the start (lets an "
+        "enclosed block be pushed out)")
+    push_max_distance: float = param(
+        0.18, "longest push sampled on a push line", unit="m")
+    # --- search --------------------------------------------------------------------------------
+    budget_s: float = param(30.0, "planning time budget", unit="s")
+    seed: int = param(0, "seed of the planner's random generator (same seed, same plan)")
+    max_depth: int = param(8, "bound on nested CLEAR / re-plan recursion per block")
+    clear_attempts: int = param(4, "clearing poses tried for one blocking block")
+    clear_outside_path: bool = param(
+        True, "option: sample clearing poses outside the blocked path (paper: uniform)")
+    clear_off_goals: bool = param(
+        True, "option: keep clearing poses off the goal slots of blocks not yet placed")
+    clear_goal_margin: float = param(
+        0.07, "with clear_off_goals, first try to keep cleared blocks this far from pending "
+        "goal slots, so fingers and push lanes around the goal stay free", unit="m")
+    probe: int = param(
+        5, "candidates whose route is planned before choosing the next block to place: one "
+        "that needs no clearing goes first")
+    clear_goal_first: bool = param(
+        True, "option: try to clear a blocking block straight to its own goal first")
+    assembly_order: bool = param(
+        True, "option: try blocks in an assembly order of the goal layout (paper: by id)")
+    shortcut: bool = param(
+        True, "option: merge two moves of the same block into one where the plan allows it")
+    goal_tolerance_xy: float = param(
+        0.002, "a block this close to its goal counts as placed (no action)", unit="m")
+    goal_tolerance_yaw: float = param(
+        0.035, "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'",
+        unit="rad")
+
+    def __post_init__(self) -> None:
+        for name in ("finger_thickness", "finger_width", "push_opening", "push_max_distance",
+                     "budget_s", "a1", "a2"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
+        for name in ("approach_clearance", "push_contact_depth", "table_margin", "a3",
+                     "a_dist", "a_push_len", "goal_tolerance_xy", "goal_tolerance_yaw"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"parameter '{name}' must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= self.eps <= 1.0 or not 0.0 <= self.eps_start <= 1.0 - self.eps:
+            raise ValueError(f"need 0 <= eps ({self.eps}) and eps + eps_start "
+                             f"({self.eps_start}) <= 1")
+        if self.n_samples < 0 or self.max_depth < 1 or self.clear_attempts < 1:
+            raise ValueError("n_samples must be >= 0, max_depth and clear_attempts >= 1")
+
+    def check_block(self, block_size: float) -> None:
+        """Cross-checks that need the block size (from the scene).
+
+        Raises:
+            ValueError: the open gripper would not fit around the block, or the pushing
+                fingertips would not both stand on the block's rear face.
+        """
+        opening = block_size + 2.0 * self.approach_clearance
+        if opening > GRIPPER_STROKE:
+            raise ValueError(f"opening block_size + 2*approach_clearance = {opening:.4f} m "
+                             f"exceeds the gripper stroke {GRIPPER_STROKE} m")
+        if self.push_opening / 2.0 + self.finger_thickness > block_size / 2.0:
+            raise ValueError("push_opening/2 + finger_thickness exceeds block_size/2: the "
+                             "fingertips would miss the block's rear face")
+
+    def to_params(self, block_size: float) -> dict[str, Any]:
+        """Everything a plan's ``params`` must carry to be replayed on its own."""
+        out: dict[str, Any] = {"block_size": block_size, "stroke": GRIPPER_STROKE}
+        out.update({f.name: getattr(self, f.name) for f in fields(self)})
+        return out

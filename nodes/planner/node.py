@@ -1,0 +1,188 @@
+"""``densepack-planner``: plans from the latest detection to the goal layout, on a worker thread.
+
+Subscribes ``/blocks/detected`` (MarkerArray) and ``/goal_layout`` (String); publishes
+``/plan`` (String JSON, latched), ``/plan/markers`` (MarkerArray, latched) and
+``/planner/status`` (String JSON PlannerStatus, latched); serves ``/planner/replan``
+(std_srvs/Trigger). It plans once automatically as soon as it has a goal layout and a detection
+that shows every block (a block listed as ``missing`` is occluded: it waits for the next
+detection and says so). A bad goal or detection is reported on the log and in the status.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import uuid
+
+from rclpy.node import Node
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import MarkerArray
+
+from msgs_py import BlockSet, MessageError, PlannerStatus, Scene
+from msgs_py.ros_codecs import block_set_from_markers, scene_from_string, to_string_msg
+from nodes.common.params import declare_config
+from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.runner import NodeSpec, run_node
+from nodes.planner.config import PlannerConfig
+from nodes.planner.markers import plan_markers
+from nodes.planner.planner import check_scene, plan_scene
+
+
+def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str]:
+    """The scene to plan, or (None, why we must wait). Raises MessageError when the goal and
+    the detection cannot be combined (unseen blocks, overlaps, outside the workspace)."""
+    if detection.missing:
+        return None, (f"blocks {sorted(detection.missing)} are occluded in the last detection; "
+                      "waiting for one that shows every block")
+    check_scene(layout)
+    seen = set(detection.ids)
+    named = sorted(s.id for s in layout.goal.slots if s.id is not None)
+    unseen = [b for b in named if b not in seen]
+    if unseen:
+        raise MessageError("goal.poses", unseen, f"the goal names blocks that were never "
+                           f"detected (seen: {sorted(seen)})")
+    return layout.with_blocks(detection.blocks), ""
+
+
+class PlannerNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("planner", **kwargs)
+        self.config = declare_config(self, PlannerConfig)
+        self._lock = threading.Lock()
+        self._layout: Scene | None = None
+        self._detection: BlockSet | None = None
+        self._auto_pending = True  # plan once by itself for each new goal layout
+        self._worker: threading.Thread | None = None
+        self._stop = threading.Event()  # set on shutdown: the worker gives up planning
+        self.plan_pub = self.create_publisher(String, "/plan", LATCHED)
+        self.markers_pub = self.create_publisher(MarkerArray, "/plan/markers", LATCHED)
+        self.status_pub = self.create_publisher(String, "/planner/status", LATCHED)
+        self.create_subscription(String, "/goal_layout", self.on_goal, LATCHED)
+        self.create_subscription(MarkerArray, "/blocks/detected", self.on_detection, RELIABLE)
+        self.create_service(Trigger, "/planner/replan", self.on_replan)
+        self.status(PlannerStatus("waiting", last_error="no goal layout and no detection yet"))
+
+    # --- callbacks ---------------------------------------------------------------------------
+    def on_goal(self, msg: String) -> None:
+        try:
+            layout = scene_from_string(msg)
+            check_scene(layout)
+        except (MessageError, ValueError) as err:
+            self.get_logger().error(f"refused goal layout: {err}")
+            self.status(PlannerStatus("failed", last_error=f"goal layout refused: {err}"))
+            return
+        with self._lock:
+            self._layout, self._auto_pending = layout, True
+        self.get_logger().info(f"goal layout: {layout.goal.n_slots} slots")
+        self.try_plan(auto=True)
+
+    def on_detection(self, msg: MarkerArray) -> None:
+        try:
+            detection = block_set_from_markers(msg)
+        except (MessageError, ValueError) as err:
+            self.get_logger().warning(f"ignored detection: {err}")
+            return
+        with self._lock:
+            self._detection = detection
+        self.try_plan(auto=True)
+
+    def on_replan(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        response.success, response.message = self.try_plan(auto=False)
+        return response
+
+    # --- planning ----------------------------------------------------------------------------
+    def try_plan(self, auto: bool) -> tuple[bool, str]:
+        """Start planning on the worker thread if everything is there; (started, why)."""
+        with self._lock:
+            if self._worker is not None and self._worker.is_alive():
+                return False, "already planning"
+            if auto and not self._auto_pending:
+                return False, "already planned for this goal; call /planner/replan"
+            layout, detection = self._layout, self._detection
+            if layout is None or detection is None:
+                why = "waiting for " + " and ".join(
+                    n for n, v in (("a goal layout", layout), ("a detection", detection))
+                    if v is None)
+                self.status(PlannerStatus("waiting", last_error=why))
+                return False, why
+            try:
+                scene, wait = scene_to_plan(layout, detection)
+            except (MessageError, ValueError) as err:
+                self._auto_pending = False
+                self.get_logger().error(f"cannot plan: {err}")
+                self.status(PlannerStatus("failed", last_error=f"cannot plan: {err}"))
+                return False, str(err)
+            if scene is None:
+                self.get_logger().info(wait)
+                self.status(PlannerStatus("waiting", last_error=wait))
+                return False, wait
+            self._auto_pending = False
+            self._worker = threading.Thread(target=self._plan, args=(scene,), daemon=True,
+                                            name="planner-worker")
+            self._worker.start()
+        return True, "planning started"
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        worker = self._worker
+        if worker is not None and worker is not threading.current_thread():
+            worker.join(timeout=5.0)
+        super().destroy_node()
+
+    def _plan(self, scene: Scene) -> None:
+        try:
+            self._plan_and_publish(scene)
+        except Exception as err:  # never let the worker die silently (e.g. during shutdown)
+            if not self._stop.is_set():
+                self.get_logger().error(f"planner worker failed: {type(err).__name__}: {err}")
+
+    def _plan_and_publish(self, scene: Scene) -> None:
+        plan_id = uuid.uuid4().hex[:12]
+        self.status(PlannerStatus("planning", plan_id=plan_id))
+        try:
+            outcome = plan_scene(scene, self.config, plan_id, should_stop=self._stop.is_set)
+        except (MessageError, ValueError) as err:
+            self.get_logger().error(f"cannot plan: {err}")
+            self.status(PlannerStatus("failed", plan_id=plan_id, last_error=str(err)))
+            return
+        if self._stop.is_set():
+            return
+        if not outcome.ok:
+            self.get_logger().error(f"no plan in {outcome.planning_time_s:.2f} s: "
+                                    f"{outcome.error}")
+            self.status(PlannerStatus("failed", plan_id=plan_id,
+                                      planning_time_s=outcome.planning_time_s,
+                                      last_error=outcome.error,
+                                      failed_block=outcome.failed_block,
+                                      metrics=outcome.metrics))
+            return
+        plan = outcome.plan
+        self.plan_pub.publish(to_string_msg(plan))
+        self.markers_pub.publish(plan_markers(plan, scene))
+        self.get_logger().info(f"plan {plan_id}: {len(plan.actions)} actions in "
+                               f"{outcome.planning_time_s:.2f} s (validated)")
+        self.status(PlannerStatus("planned", plan_id=plan_id, n_actions=len(plan.actions),
+                                  planning_time_s=outcome.planning_time_s,
+                                  metrics=outcome.metrics))
+
+    def status(self, status: PlannerStatus) -> None:
+        self.status_pub.publish(to_string_msg(status))
+
+
+SPEC = NodeSpec(
+    "planner",
+    PlannerNode,
+    "Plans pick-and-place and push actions (pIRS over a PRM) from /blocks/detected to "
+    "/goal_layout; publishes /plan, /plan/markers, /planner/status; serves /planner/replan.",
+    configs=(("", PlannerConfig),),
+)
+
+
+def main(args=None) -> int:
+    return run_node(SPEC, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
