@@ -55,6 +55,9 @@ class ExecutorConfig:
     detection_timeout_s: float = param(
         6.0, "wait this long for a detection after a camera trigger", unit="s")
     detection_retries: int = param(5, "camera triggers before giving up on a detection")
+    idle_look_period_s: float = param(
+        5.0, "without a plan: park and trigger the camera this often, so the planner sees the "
+        "blocks with the arm out of view (0 = never)", unit="s")
     max_replans: int = param(6, "replans (drift corrections) before the executor gives up")
     replan_timeout_s: float = param(60.0, "wait this long for a new plan", unit="s")
 

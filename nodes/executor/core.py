@@ -84,6 +84,7 @@ class ExecutorCore:
             "execution_time_s": 0.0,
         }
         self._started_at: float | None = None
+        self._last_idle_look: float | None = None
         self._out = Outputs()
 
     # --- inputs ---------------------------------------------------------------------------------
@@ -141,6 +142,8 @@ class ExecutorCore:
         if (self.phase is Phase.IDLE and self.runner is None and self.plan is not None
                 and self._start_requested):
             self._observe("resume" if self.index > 0 else "verify_start")
+        if self.phase is Phase.IDLE and self.plan is None:
+            self._look_while_idle(now)
         if self.runner is not None:
             self._run(now)
         elif self.phase is Phase.OBSERVING:
@@ -150,6 +153,18 @@ class ExecutorCore:
         if self._started_at is not None:
             self.metrics["execution_time_s"] = now - self._started_at
         return self._out
+
+    def _look_while_idle(self, now: float) -> None:
+        """No plan yet: park, and show the planner the blocks with the arm out of view."""
+        period = self.cfg.idle_look_period_s
+        if period <= 0 or self.runner is not None:
+            return
+        if self.commanded is None or self.commanded.distance_to(self.cfg.park) > 1e-6:
+            self._start_runner(park_steps(self.cfg), then="idle_parked")
+            return
+        if self._last_idle_look is None or now - self._last_idle_look >= period:
+            self._last_idle_look = now
+            self._out.trigger_camera = True
 
     # --- status ---------------------------------------------------------------------------------
     def status(self) -> ExecutorStatus:
@@ -404,6 +419,8 @@ class ExecutorCore:
                 self._observe("after_action")
             else:
                 self._next_action()
+        elif then == "idle_parked":
+            pass
         elif then == "put_back":
             self.holding = None
             self.phase = Phase.IDLE

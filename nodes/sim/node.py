@@ -32,7 +32,7 @@ from visualization_msgs.msg import MarkerArray
 from msgs_py import BlockSet, MessageError
 from msgs_py.ros_codecs import block_set_to_markers, executor_status_from_string, ns_to_stamp
 from nodes.common.params import declare_config
-from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.layout import load_sim_scene, scene_problems
@@ -46,9 +46,6 @@ from nodes.sim.messages import (
 )
 from nodes.sim.world import SimWorld
 
-#: Camera frames: reliable, so a 3.7 MB frame is re-sent rather than lost over Fast DDS;
-#: best-effort (sensor-data) subscribers still match a reliable publisher.
-CAMERA_QOS = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE)
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 SERVICE_TIMEOUT_S = 60.0
 
@@ -89,8 +86,8 @@ class SimNode(Node):
         self.pub_tcp = self.create_publisher(PoseStamped, "/tcp_pose", RELIABLE)
         self.pub_truth = self.create_publisher(MarkerArray, "/sim/ground_truth", RELIABLE)
         self.pub_events = self.create_publisher(String, "/sim/events", LATCHED)
-        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA_QOS)
-        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA_QOS)
+        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
+        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
                                  RELIABLE, callback_group=group)
         self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,

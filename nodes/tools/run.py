@@ -42,7 +42,9 @@ def draw_plan(plan: Plan, path: Path) -> bool:
         from nodes.planner.draw import draw_plan as planner_draw
     except ImportError:
         return False
-    planner_draw(plan, path)
+    if plan.scene is None:
+        return False
+    planner_draw(plan.scene, plan, path, title=f"plan {plan.plan_id}")
     return True
 
 

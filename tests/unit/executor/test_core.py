@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 
@@ -222,3 +223,20 @@ def test_stop_between_actions_then_start_resumes_at_the_next_action():
     core.request_start()
     world.run(lambda: core.phase is Phase.DONE)
     assert world.replan_requests == 0 and core.metrics["actions_executed"] == 3
+
+
+def test_without_a_plan_the_arm_parks_and_the_camera_is_triggered_periodically():
+    core = ExecutorCore(CFG)
+    core.on_tcp(ToolPose(0.6, 0.0, 0.3, 0.0))  # somewhere over the table
+    triggers, t = [], 0.0
+    while t < 30.0:
+        out = core.tick(t)
+        if out.setpoint is not None:
+            core.on_tcp(out.setpoint)
+        if out.trigger_camera:
+            triggers.append(t)
+        t += DT
+    assert core.commanded == CFG.park
+    assert len(triggers) >= 3
+    gaps = [b - a for a, b in itertools.pairwise(triggers)]
+    assert all(g == pytest.approx(CFG.idle_look_period_s, abs=DT) for g in gaps)
