@@ -39,3 +39,12 @@ CAMERA = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
+
+
+def camera_subscription_qos(reliability: str) -> QoSProfile:
+    """``CAMERA`` or, for ``best_effort``, the same history with best-effort delivery."""
+    if reliability == "best_effort":
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2,
+                          reliability=ReliabilityPolicy.BEST_EFFORT,
+                          durability=DurabilityPolicy.VOLATILE)
+    return CAMERA
