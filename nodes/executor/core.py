@@ -86,6 +86,7 @@ class ExecutorCore:
         self._started_at: float | None = None
         self._last_idle_look: float | None = None
         self._out = Outputs()
+        self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
 
     # --- inputs ---------------------------------------------------------------------------------
     def on_tcp(self, pose: ToolPose) -> None:
@@ -152,6 +153,7 @@ class ExecutorCore:
             self._wait_for_plan(now)
         if self._started_at is not None:
             self.metrics["execution_time_s"] = now - self._started_at
+        self._out.log, self._pending_log = self._pending_log, []
         return self._out
 
     def _look_while_idle(self, now: float) -> None:
@@ -444,4 +446,4 @@ class ExecutorCore:
         self._stop_safely(reason, failed=True)
 
     def _log(self, line: str) -> None:
-        self._out.log.append(line)
+        self._pending_log.append(line)

@@ -145,10 +145,13 @@ class StepRunner:
             return Tick(move.end, None, True, label=step.label)
         if t > move.duration + self.timeout:
             off = ("unknown" if measured is None
-                   else f"{measured.distance_to(move.end) * 1e3:.1f} mm")
-            return Tick(move.end, None, False, label=step.label,
-                        error=f"step '{step.label}': TCP did not reach its target "
-                              f"within {self.timeout:.1f} s (off by {off})")
+                   else f"{measured.distance_to(move.end) * 1e3:.1f} mm: at "
+                        f"({measured.x:.4f}, {measured.y:.4f}, {measured.z:.4f})")
+            end = move.end
+            return Tick(end, None, False, label=step.label,
+                        error=f"step '{step.label}': TCP did not reach ({end.x:.4f}, "
+                              f"{end.y:.4f}, {end.z:.4f}) within {self.timeout:.1f} s "
+                              f"(off by {off})")
         return Tick(move.end, None, False, label=step.label)
 
     def _advance(self) -> None:

@@ -23,7 +23,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from msgs_py import save_scene
+from msgs_py import save_plan, save_scene
 from nodes.tools.cell_run import CellRun, RunMonitor, run_metrics
 from nodes.tools.cell_run import run as run_cell
 
@@ -130,6 +130,8 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
         monitor.node.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+    for k, plan in enumerate(monitor.plans):
+        save_plan(plan, workdir / f"plan_{blocks}_{seed}_{fault}_{k}.json")
     metrics.update(seed=seed, fault=fault, success=is_success(metrics))
     (workdir / f"metrics_{blocks}_{seed}_{fault}.json").write_text(
         json.dumps(metrics, indent=2, default=str))

@@ -164,7 +164,7 @@ def test_a_tcp_that_does_not_follow_stops_the_arm_and_reports():
         core.on_tcp(frozen)  # the arm holds still (an unreachable setpoint, say)
         t += DT
     assert core.phase is Phase.STOPPING
-    assert "did not reach its target" in core.status().last_error
+    assert "TCP did not reach" in core.status().last_error
 
 
 def test_stop_while_carrying_then_start_puts_the_block_back_and_replans():

@@ -161,7 +161,7 @@ def test_a_tcp_that_never_arrives_is_reported():
     t = 0.0
     while t < 10 and not (tick := runner.update(t, stuck)).error:
         t += 0.01
-    assert "did not reach its target" in tick.error and "100.0 mm" in tick.error
+    assert "TCP did not reach" in tick.error and "100.0 mm" in tick.error
 
 
 def test_a_lagging_arm_delays_but_does_not_break_the_script():
