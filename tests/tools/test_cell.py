@@ -107,3 +107,16 @@ def test_cell_reports_missing_nodes_and_starts_the_rest():
     if missing:
         assert "not implemented yet, not started: " + ", ".join(missing) in out
     assert "[cell] started goal" in out
+
+
+def test_command_line_parameters_override_the_cell_file(tmp_path):
+    from nodes.tools.cell import load_cell
+
+    cell = tmp_path / "cell.yaml"
+    cell.write_text("parameters: {use_sim_time: true, scene_file: a.yaml}\n"
+                    "nodes:\n  goal:\n    parameters: {scene_file: b.yaml}\n")
+    (launch,), _ = load_cell(cell)
+    assert launch.parameters == {"use_sim_time": True, "scene_file": "b.yaml"}
+    (launch,), _ = load_cell(cell, extra_params={"scene_file": "/x/c.yaml"})
+    assert launch.parameters["scene_file"] == "/x/c.yaml"
+    assert launch.ros_args()[-2:] == ["-p", "scene_file:=/x/c.yaml"]
