@@ -18,34 +18,12 @@ plan wanted it along the push line.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
 from msgs_py import PickPlace, Pose2D, Push
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
 from nodes.executor.steps import Grip, Move, Rise, Step
-
-
-@dataclass(frozen=True, slots=True)
-class GripperGeometry:
-    """The geometry parameters a plan was made with (DESIGN §5 ``params``)."""
-
-    block_size: float = 0.0508
-    finger_thickness: float = 0.010
-    finger_width: float = 0.022
-    approach_clearance: float = 0.008
-    push_opening: float = 0.030
-    push_contact_depth: float = 0.010
-
-    @classmethod
-    def from_params(cls, params: dict[str, Any]) -> GripperGeometry:
-        known = {k: float(params[k]) for k in cls.__dataclass_fields__ if k in params}
-        return cls(**known)
-
-    @property
-    def approach_opening(self) -> float:
-        return self.block_size + 2.0 * self.approach_clearance
+from nodes.planner.geometry import GripperGeometry
 
 
 def pick_place_steps(

@@ -13,16 +13,16 @@ from msgs_py import PickPlace, Pose2D, Push
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import Limits, LinearMove, ToolPose, minimum_jerk_duration
 from nodes.executor.primitives import (
-    GripperGeometry,
     action_steps,
     expected_after,
     park_steps,
     push_steps,
 )
 from nodes.executor.steps import Grip, Move, StepRunner
+from nodes.planner.geometry import GripperGeometry
 
 CFG = ExecutorConfig()
-GEO = GripperGeometry()
+GEO = GripperGeometry.from_params({})
 RATE = 200.0
 
 
@@ -109,7 +109,7 @@ def test_pick_place_grips_centred_with_the_right_axis_and_places_at_the_goal():
     turn = lower.target.yaw - descend.target.yaw
     assert math.remainder(turn - (0.0 - 0.4), math.pi) == pytest.approx(0, abs=1e-12)
     grips = [s for s in steps if isinstance(s, Grip)]
-    assert grips[0].opening == pytest.approx(0.0508 + 2 * 0.008)
+    assert grips[0].opening == pytest.approx(0.0508 + 2 * GEO.approach_clearance)
     assert grips[1].opening == CFG.grip_command
 
 
