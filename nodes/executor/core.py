@@ -370,9 +370,7 @@ class ExecutorCore:
         self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
                       f"block {action.block}"
         self._log(self.detail)
-        tool = self.commanded or self.tcp
-        assert tool is not None
-        steps = action_steps(action, start, self.geo, self.cfg, tool.yaw)
+        steps = action_steps(action, start, self.geo, self.cfg)
         self._held_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
         self._start_runner(steps, then="action_done")
