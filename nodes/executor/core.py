@@ -25,9 +25,11 @@ from dataclasses import dataclass, field
 from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
-from nodes.executor.primitives import GripperGeometry, action_steps, expected_after, park_steps
+from nodes.executor.primitives import action_steps, expected_after, park_steps
+from nodes.executor.recovery import free_spot, holds_block
 from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
 from nodes.executor.verify import deviations, goal_errors
+from nodes.planner.geometry import GripperGeometry
 
 
 class Phase(enum.Enum):
@@ -57,7 +59,7 @@ class ExecutorCore:
         self.cfg = cfg
         self.phase = Phase.IDLE
         self.plan: Plan | None = None
-        self.geo = GripperGeometry()
+        self.geo = GripperGeometry.from_params({})
         self.index = 0  # next action to run (0-based)
         self.tcp: ToolPose | None = None
         self.perceived: dict[int, Pose2D] = {}
@@ -65,6 +67,9 @@ class ExecutorCore:
         self.holding: int | None = None
         self._held_from: Pose2D | None = None  # where the held block was picked up
         self.commanded: ToolPose | None = None  # last setpoint streamed
+        self.finger_gap: float | None = None
+        self._recovering = False  # holding an unknown block at start-up
+        self._checked_fingers = False
         self.last_error = ""
         self.detail = ""
         self.runner: StepRunner | None = None
@@ -91,6 +96,10 @@ class ExecutorCore:
     # --- inputs ---------------------------------------------------------------------------------
     def on_tcp(self, pose: ToolPose) -> None:
         self.tcp = pose
+
+    def on_finger_gap(self, gap: float) -> None:
+        """The measured gap between the pads (m): tells whether the fingers hold a block."""
+        self.finger_gap = gap
 
     def on_detection(self, detection: BlockSet) -> None:
         """Take a detection; only one taken after our camera trigger counts as an observation."""
@@ -142,6 +151,13 @@ class ExecutorCore:
             self._started_at = now
         if (self.phase is Phase.IDLE and self.runner is None and self.plan is not None
                 and self._start_requested):
+            if not self._checked_fingers:
+                self._checked_fingers = True
+                if self.holding is None and holds_block(self.finger_gap, self.geo.block_size):
+                    self._log(f"the fingers hold something ({self.finger_gap * 1e3:.1f} mm "
+                              "apart): parking with it, then looking which block it is")
+                    self._recovering = True
+                    self.holding = -1
             self._observe("resume" if self.index > 0 else "verify_start")
         if self.phase is Phase.IDLE and self.plan is None:
             self._look_while_idle(now)
@@ -174,7 +190,7 @@ class ExecutorCore:
         block = None
         if self.plan and self.phase is Phase.RUNNING and self.index < total:
             block = self.plan.actions[self.index].block
-        if self.holding is not None:
+        if self.holding is not None and self.holding >= 0:
             block = self.holding
         state = "correcting" if self.phase is Phase.REPLANNING else self.phase.value
         return ExecutorStatus(
@@ -261,6 +277,9 @@ class ExecutorCore:
         plan = self.plan
         if plan is None:
             self.phase = Phase.IDLE
+            return
+        if self._recovering:
+            self._recover_held_block()
             return
         if purpose == "verify_start":
             self._check_plan_start()
@@ -351,9 +370,7 @@ class ExecutorCore:
         self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
                       f"block {action.block}"
         self._log(self.detail)
-        tool = self.commanded or self.tcp
-        assert tool is not None
-        steps = action_steps(action, start, self.geo, self.cfg, tool.yaw)
+        steps = action_steps(action, start, self.geo, self.cfg)
         self._held_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
         self._start_runner(steps, then="action_done")
@@ -361,21 +378,50 @@ class ExecutorCore:
     def _put_back_held_block(self) -> None:
         """After a stop while carrying a block: set it down where it was picked up (known free)."""
         assert self.holding is not None and self._held_from is not None
-        block, where = self.holding, self._held_from
-        self.detail = f"putting block {block} back at ({where.x:.3f}, {where.y:.3f})"
+        self._set_down_held_block(self.holding, self._held_from)
+
+    def _set_down_held_block(self, block: int, where: Pose2D) -> None:
+        self.detail = f"setting block {block} down at ({where.x:.3f}, {where.y:.3f})"
         self._log(self.detail)
         self.expected[block] = where
         above = ToolPose(where.x, where.y, self.cfg.travel_height,
                          (self.commanded or self.tcp).yaw)
         steps: list[Step] = [
             Rise(self.cfg.travel_height, self.cfg.vertical_limits, f"block {block}: rise"),
-            Move(above, self.cfg.travel_limits, f"block {block}: carry back"),
+            Move(above, self.cfg.travel_limits, f"block {block}: carry"),
             Move(above.with_z(self.cfg.grasp_height + self.cfg.place_drop),
                  self.cfg.vertical_limits, f"block {block}: lower"),
             Grip(self.geo.approach_opening, self.cfg.gripper_settle_s, f"block {block}: release"),
             Move(above, self.cfg.vertical_limits, f"block {block}: retreat"),
         ]
         self._start_runner(steps, then="put_back")
+
+    def _recover_held_block(self) -> None:
+        """The fingers held a block when this executor started: find which, set it down."""
+        self._recovering = False
+        plan = self.plan
+        assert plan is not None
+        known = {b.id: b.pose for b in plan.scene.blocks} if plan.scene else {}
+        unseen = sorted(set(known) - set(self.perceived))
+        if len(unseen) != 1:
+            self._log(f"the fingers seemed to hold a block, but {len(unseen)} blocks are "
+                      "unseen; opening the gripper here, out of the workspace")
+            self.holding = None
+            self._start_runner([Grip(self.geo.approach_opening, self.cfg.gripper_settle_s,
+                                     "open")], then="put_back")
+            return
+        block = unseen[0]
+        tool = self.commanded or self.tcp
+        assert tool is not None
+        workspace = plan.scene.workspace
+        spot = free_spot(self.perceived, workspace, self.geo, tool.yaw,
+                         (known[block].x, known[block].y),
+                         float(plan.params.get("table_margin", 0.05)))
+        if spot is None:
+            self._fail(f"holding block {block} and no free spot to set it down")
+            return
+        self.holding = block
+        self._set_down_held_block(block, spot)
 
     def _start_runner(self, steps: list[Step], then: str) -> None:
         start = self.commanded or self.tcp

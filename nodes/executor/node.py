@@ -10,11 +10,13 @@ All the behaviour lives in ``ExecutorCore``; this node only converts and forward
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
@@ -29,9 +31,12 @@ from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
 
+FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
+
 TOPICS = """\
 subscribes: /plan (std_msgs/String JSON, latched),
-            /blocks/detected (visualization_msgs/MarkerArray), /tcp_pose (geometry_msgs/PoseStamped)
+            /blocks/detected (visualization_msgs/MarkerArray),
+            /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /gripper/command (std_msgs/Float64), /executor/status (std_msgs/String JSON, latched)
 services:   /executor/start, /executor/stop (std_srvs/Trigger)
@@ -56,6 +61,7 @@ class ExecutorNode(Node):
         self.create_subscription(String, "/plan", self.on_plan, LATCHED)
         self.create_subscription(MarkerArray, "/blocks/detected", self.on_detection, RELIABLE)
         self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
+        self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
         self.create_service(Trigger, "/executor/start", self.on_start)
         self.create_service(Trigger, "/executor/stop", self.on_stop)
         self.camera = self.create_client(Trigger, "/camera/trigger")
@@ -92,6 +98,16 @@ class ExecutorNode(Node):
             return
         with self.lock:
             self.core.on_tcp(pose)
+
+    def on_joints(self, msg: JointState) -> None:
+        """The pads' gap is the sum of the two finger joints (docs/contracts.md)."""
+        try:
+            gap = sum(msg.position[msg.name.index(n)] for n in FINGER_JOINTS)
+        except (ValueError, IndexError):
+            return  # another publisher's joints, or a partial message: not ours to judge
+        if math.isfinite(gap):
+            with self.lock:
+                self.core.on_finger_gap(float(gap))
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:

@@ -18,43 +18,32 @@ plan wanted it along the push line.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
 from msgs_py import PickPlace, Pose2D, Push
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
 from nodes.executor.steps import Grip, Move, Rise, Step
+from nodes.planner.geometry import GripperGeometry
 
 
-@dataclass(frozen=True, slots=True)
-class GripperGeometry:
-    """The geometry parameters a plan was made with (DESIGN §5 ``params``)."""
+def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
+    """The tool yaw for a closing axis: of yaw + k*pi, the one nearest the park yaw.
 
-    block_size: float = 0.0508
-    finger_thickness: float = 0.010
-    finger_width: float = 0.022
-    approach_clearance: float = 0.008
-    push_opening: float = 0.030
-    push_contact_depth: float = 0.010
-
-    @classmethod
-    def from_params(cls, params: dict[str, Any]) -> GripperGeometry:
-        known = {k: float(params[k]) for k in cls.__dataclass_fields__ if k in params}
-        return cls(**known)
-
-    @property
-    def approach_opening(self) -> float:
-        return self.block_size + 2.0 * self.approach_clearance
+    A two-finger grasp is the same under a half turn, so every tool yaw can stay within a
+    quarter turn of one neutral yaw. Choosing relative to the *current* yaw instead lets the
+    wrist wander action after action until the IK must change branch (a joint at its limit),
+    and the arm then leaves the straight line for a joint-space swing.
+    """
+    return equivalent_yaw_near(closing_axis_yaw, cfg.park.yaw)
 
 
 def pick_place_steps(
-    action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig, tool_yaw: float
+    action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
 ) -> list[Step]:
-    """Steps for ``action`` with the block perceived at ``start``; ``tool_yaw``: current yaw."""
-    pick_yaw = equivalent_yaw_near(start.theta + action.grasp * math.pi / 2, tool_yaw)
+    """Steps for ``action`` with the block perceived at ``start``."""
+    pick_yaw = tool_yaw(start.theta + action.grasp * math.pi / 2, cfg)
     turn = math.remainder(action.to.theta - start.theta, 2 * math.pi)
-    place_yaw = equivalent_yaw_near(pick_yaw + turn, pick_yaw)
+    place_yaw = tool_yaw(pick_yaw + turn, cfg)
     pick = ToolPose(start.x, start.y, cfg.travel_height, pick_yaw)
     place = ToolPose(action.to.x, action.to.y, cfg.travel_height, place_yaw)
     tag = f"block {action.block}"
@@ -82,12 +71,12 @@ def push_geometry(action: Push, start: Pose2D, geo: GripperGeometry) -> tuple[fl
 
 
 def push_steps(
-    action: Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig, tool_yaw: float
+    action: Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
 ) -> list[Step]:
     """Steps for a two-fingertip push of ``action`` with the block perceived at ``start``."""
     dx, dy = action.direction
     distance, behind = push_geometry(action, start, geo)
-    yaw = equivalent_yaw_near(math.atan2(dy, dx) + math.pi / 2, tool_yaw)
+    yaw = tool_yaw(math.atan2(dy, dx) + math.pi / 2, cfg)
     contact = ToolPose(start.x - dx * behind, start.y - dy * behind, cfg.push_height, yaw)
     travel = distance + geo.push_contact_depth
     end = contact.offset(dx * travel, dy * travel)
@@ -112,12 +101,11 @@ def park_steps(cfg: ExecutorConfig) -> list[Step]:
 
 
 def action_steps(
-    action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
-    tool_yaw: float,
+    action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
 ) -> list[Step]:
     if isinstance(action, PickPlace):
-        return pick_place_steps(action, start, geo, cfg, tool_yaw)
-    return push_steps(action, start, geo, cfg, tool_yaw)
+        return pick_place_steps(action, start, geo, cfg)
+    return push_steps(action, start, geo, cfg)
 
 
 def expected_after(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry) -> Pose2D:

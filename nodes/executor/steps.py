@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from nodes.executor.motion import Limits, LinearMove, ToolPose, equivalent_yaw_near
+from nodes.executor.motion import Limits, LinearMove, ToolPose
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,8 +116,6 @@ class StepRunner:
         self._gripper_sent = False
         if isinstance(step, Move | Rise):
             target = step.target if isinstance(step, Move) else self.commanded.with_z(step.z)
-            target = ToolPose(target.x, target.y, target.z,
-                              equivalent_yaw_near(target.yaw, self.commanded.yaw))
             if not self.in_safe_box(target):
                 self._t0 = None
                 return (f"step '{step.label}' would go to ({target.x:.3f}, {target.y:.3f}, "

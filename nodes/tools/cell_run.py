@@ -125,6 +125,7 @@ class CellRun:
         self.extra = list(extra_ros_args)
         self.log = log
         self.procs: dict[str, subprocess.Popen] = {}
+        self.killed: set[str] = set()  # killed on purpose (fault injection), not crashed
         self.pumps: list[threading.Thread] = []
         self.log_lock = threading.Lock()
         self.env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
@@ -135,6 +136,7 @@ class CellRun:
             proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                     text=True, env=self.env, start_new_session=True)
             self.procs[launch.name] = proc
+            self.killed.discard(launch.name)
             pump = threading.Thread(target=self._pump, args=(launch.name, proc), daemon=True)
             pump.start()
             self.pumps.append(pump)
@@ -149,12 +151,13 @@ class CellRun:
     def kill(self, name: str) -> None:
         """SIGKILL one node, as a crash would."""
         proc = self.procs[name]
+        self.killed.add(name)
         proc.kill()
         proc.wait()
 
     def died(self) -> list[tuple[str, int]]:
         return [(n, p.returncode) for n, p in self.procs.items()
-                if p.poll() is not None and p.returncode != 0]
+                if n not in self.killed and p.poll() is not None and p.returncode != 0]
 
     def stop(self, grace_s: float = 15.0) -> None:
         for proc in self.procs.values():

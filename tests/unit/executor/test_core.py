@@ -62,6 +62,7 @@ class World:
         last = None
         done_before = 0
         plans: list[tuple[float, Plan | None]] = []
+        held = self.core.holding
         while t < max_t and not until():
             out = self.core.tick(t)
             self.logs += out.log
@@ -70,6 +71,10 @@ class World:
                     self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
                 last = out.setpoint
                 self.core.on_tcp(out.setpoint)
+            holding = self.core.holding
+            if held is not None and held >= 0 and holding is None:  # set down outside a plan
+                self.blocks[held] = self.core.expected[held]
+            held = holding
             done = int(self.core.metrics["actions_executed"])
             if done > done_before:  # an action finished: the block is where it was sent
                 action = self.core.plan.actions[self.core.index - 1]
@@ -240,3 +245,28 @@ def test_without_a_plan_the_arm_parks_and_the_camera_is_triggered_periodically()
     assert len(triggers) >= 3
     gaps = [b - a for a, b in itertools.pairwise(triggers)]
     assert all(g == pytest.approx(CFG.idle_look_period_s, abs=DT) for g in gaps)
+
+
+def test_a_block_found_in_the_fingers_at_start_up_is_set_down_then_the_plan_runs():
+    """An executor restarted while carrying: the sim's fingers still hold block 2, whose
+    pick-up spot is free, so it goes back there and the latched plan still applies."""
+    core = ExecutorCore(CFG)
+    world = World(core, [START[0]])  # the camera sees block 1 only: 2 is in the fingers
+    core.on_finger_gap(0.0508)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    assert any("setting block 2 down at (0.800, 0.200)" in line for line in world.logs)
+    assert world.replan_requests == 0
+
+
+def test_a_held_block_whose_spot_is_taken_goes_to_free_space_and_the_plan_is_redone():
+    core = ExecutorCore(CFG)
+    squatter = BlockPose(1, 0.80, 0.17, 0.0)  # block 1 now stands where 2 was picked up
+    world = World(core, [squatter])
+    core.on_finger_gap(0.0508)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.REPLANNING)
+    spot = core.expected[2]
+    assert spot.distance_to(squatter.pose) >= 0.0508 + 0.008  # clear of the squatter
+    assert WS.contains_square(spot, 0.0508)
+    assert core.holding is None and "plan start differs" in core.detail

@@ -13,16 +13,16 @@ from msgs_py import PickPlace, Pose2D, Push
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import Limits, LinearMove, ToolPose, minimum_jerk_duration
 from nodes.executor.primitives import (
-    GripperGeometry,
     action_steps,
     expected_after,
     park_steps,
     push_steps,
 )
 from nodes.executor.steps import Grip, Move, StepRunner
+from nodes.planner.geometry import GripperGeometry
 
 CFG = ExecutorConfig()
-GEO = GripperGeometry()
+GEO = GripperGeometry.from_params({})
 RATE = 200.0
 
 
@@ -77,7 +77,7 @@ def push():
 
 @pytest.mark.parametrize("action", [pick(), push()], ids=["pick_place", "push"])
 def test_streams_respect_speed_limits_and_safe_box(action):
-    stream = play(action_steps(action, action.from_, GEO, CFG, 0.0) + park_steps(CFG))
+    stream = play(action_steps(action, action.from_, GEO, CFG) + park_steps(CFG))
     v, a = speeds(stream)
     assert v.max() <= CFG.speed * 1.01
     assert a.max() <= CFG.accel * 1.05
@@ -89,7 +89,7 @@ def test_streams_respect_speed_limits_and_safe_box(action):
 
 
 def test_travel_happens_above_the_blocks():
-    stream = play(action_steps(pick(), pick().from_, GEO, CFG, 0.0))
+    stream = play(action_steps(pick(), pick().from_, GEO, CFG))
     for _, label, s, _ in stream:
         if label.endswith(("travel above", "carry")):
             assert s.z == pytest.approx(CFG.travel_height)
@@ -97,7 +97,7 @@ def test_travel_happens_above_the_blocks():
 
 def test_pick_place_grips_centred_with_the_right_axis_and_places_at_the_goal():
     action = pick()
-    steps = action_steps(action, action.from_, GEO, CFG, 0.0)
+    steps = action_steps(action, action.from_, GEO, CFG)
     descend = next(s for s in steps if isinstance(s, Move) and s.label.endswith("descend"))
     assert (descend.target.x, descend.target.y) == (0.55, -0.2)
     assert descend.target.z == CFG.grasp_height
@@ -109,13 +109,13 @@ def test_pick_place_grips_centred_with_the_right_axis_and_places_at_the_goal():
     turn = lower.target.yaw - descend.target.yaw
     assert math.remainder(turn - (0.0 - 0.4), math.pi) == pytest.approx(0, abs=1e-12)
     grips = [s for s in steps if isinstance(s, Grip)]
-    assert grips[0].opening == pytest.approx(0.0508 + 2 * 0.008)
+    assert grips[0].opening == pytest.approx(0.0508 + 2 * GEO.approach_clearance)
     assert grips[1].opening == CFG.grip_command
 
 
 def test_push_streams_along_the_line_through_the_block_centre():
     action = push()
-    stream = play(push_steps(action, action.from_, GEO, CFG, 0.0))
+    stream = play(push_steps(action, action.from_, GEO, CFG))
     d = np.array(action.direction)
     normal = np.array([-d[1], d[0]])
     centre = np.array([action.from_.x, action.from_.y])
@@ -143,7 +143,7 @@ def test_push_from_a_perceived_pose_ends_at_the_planned_point_along_the_line():
 
 def test_a_step_outside_the_safe_box_is_refused_with_its_name():
     far = PickPlace(1, Pose2D(0.6, 0.0), Pose2D(1.6, 0.0), 0)
-    runner = StepRunner(action_steps(far, far.from_, GEO, CFG, 0.0), ToolPose(0.5, 0, 0.3, 0),
+    runner = StepRunner(action_steps(far, far.from_, GEO, CFG), ToolPose(0.5, 0, 0.3, 0),
                         CFG.convergence_tol, CFG.convergence_timeout_s, CFG.in_safe_box)
     t, tick = 0.0, None
     while t < 60:
@@ -165,7 +165,7 @@ def test_a_tcp_that_never_arrives_is_reported():
 
 
 def test_a_lagging_arm_delays_but_does_not_break_the_script():
-    stream = play(action_steps(pick(), pick().from_, GEO, CFG, 0.0), lag=20)
+    stream = play(action_steps(pick(), pick().from_, GEO, CFG), lag=20)
     assert stream[-1][2].z == pytest.approx(CFG.travel_height)
 
 
@@ -177,6 +177,19 @@ def test_config_rejects_a_park_pose_outside_the_safe_box():
 def test_a_zero_wait_grip_still_reaches_the_gripper():
     """Regression: the push's 'close to push' (no settle time) was swallowed by the next move."""
     action = push()
-    stream = play(push_steps(action, action.from_, GEO, CFG, 0.0))
+    stream = play(push_steps(action, action.from_, GEO, CFG))
     commands = [g for _, _, _, g in stream if g is not None]
     assert commands == [GEO.push_opening]
+
+
+def test_tool_yaws_stay_within_a_quarter_turn_of_the_park_yaw():
+    """Regression: yaws chosen relative to the current one wandered action after action
+    until the wrist ran into its limit and the IK swung the arm onto another branch."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        theta, to_theta = rng.uniform(-math.pi, math.pi, 2)
+        action = PickPlace(1, Pose2D(0.6, 0.0, theta), Pose2D(0.7, 0.1, to_theta),
+                           int(rng.integers(2)))
+        for step in action_steps(action, action.from_, GEO, CFG):
+            if isinstance(step, Move):
+                assert abs(step.target.yaw - CFG.park.yaw) <= math.pi / 2 + 1e-9
