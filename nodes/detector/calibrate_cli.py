@@ -26,7 +26,7 @@ from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
 from msgs_py.ros_codecs import stamp_to_ns
 from nodes.common.params import declare_config, describe_config, param
 from nodes.common.paths import config_path
-from nodes.common.qos import SENSOR
+from nodes.common.qos import CAMERA
 from nodes.common.runner import split_ros_args
 from nodes.detector.calibration import CalibrationResult, calibrate_camera
 from nodes.detector.camera_model import save_camera_pose
@@ -76,9 +76,9 @@ class CalibrateNode(Node):
         self.done = threading.Event()
         self.problems: list[str] = []
         group = MutuallyExclusiveCallbackGroup()
-        self.create_subscription(Image, "/camera/image_raw", self.on_image, SENSOR,
+        self.create_subscription(Image, "/camera/image_raw", self.on_image, CAMERA,
                                  callback_group=group)
-        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, SENSOR,
+        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, CAMERA,
                                  callback_group=group)
         self.trigger_client = self.create_client(Trigger, "/camera/trigger") \
             if self.config.trigger else None

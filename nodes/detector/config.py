@@ -40,6 +40,10 @@ class DetectorConfig:
     expected_ids: str = param(
         "", "ids known from the start (reported in 'missing' until seen), e.g. '0-8'; ids "
         "seen since start or the last ~/reset are known too")
+    image_reliability: str = param(
+        "reliable", "QoS reliability of the image/camera_info subscriptions: reliable (the "
+        "sim's frames; best effort lost one 3.7 MB frame in three under load) or best_effort "
+        "(to hear a camera driver that publishes sensor-data QoS)")
     block_size: float = param(0.0508, "cube side; tags lie in the plane z = block_size",
                               unit="m")
     tag_size: float = param(0.040, "side of the tag's black square", unit="m")
@@ -60,6 +64,9 @@ class DetectorConfig:
         if self.pose_method not in ESTIMATORS:
             raise ValueError(f"parameter 'pose_method': '{self.pose_method}' is not one of "
                              f"{sorted(ESTIMATORS)}")
+        if self.image_reliability not in ("reliable", "best_effort"):
+            raise ValueError(f"parameter 'image_reliability': '{self.image_reliability}' is "
+                             "not reliable or best_effort")
         if not self.decimate >= 1.0:
             raise ValueError(f"parameter 'decimate': must be >= 1, got {self.decimate}")
         if not self.max_reprojection_px > 0.0:

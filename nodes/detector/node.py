@@ -27,7 +27,7 @@ from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
 from msgs_py.ros_codecs import block_set_to_markers, stamp_to_ns
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
-from nodes.common.qos import RELIABLE, SENSOR
+from nodes.common.qos import RELIABLE, camera_subscription_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
@@ -64,9 +64,10 @@ class DetectorNode(Node):
         self._last_frame_wall = time.monotonic()
         group = MutuallyExclusiveCallbackGroup()
         self.publisher = self.create_publisher(MarkerArray, "/blocks/detected", RELIABLE)
-        self.create_subscription(Image, "/camera/image_raw", self.on_image, SENSOR,
+        camera_qos = camera_subscription_qos(self.config.image_reliability)
+        self.create_subscription(Image, "/camera/image_raw", self.on_image, camera_qos,
                                  callback_group=group)
-        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, SENSOR,
+        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, camera_qos,
                                  callback_group=group)
         self.create_service(Trigger, "~/reset", self.on_reset, callback_group=group)
         self.create_timer(WATCHDOG_PERIOD_S, self.watchdog, callback_group=group)

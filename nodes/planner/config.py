@@ -82,8 +82,9 @@ class PlannerConfig:
     goal_tolerance_xy: float = param(
         0.002, "a block this close to its goal counts as placed (no action)", unit="m")
     goal_tolerance_yaw: float = param(
-        0.035, "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'",
-        unit="rad")
+        0.0262, "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'; "
+        "1.5 deg, the executor's yaw_tolerance_deg, so a block the executor finds off its "
+        "goal is one the planner moves again", unit="rad")
 
     def __post_init__(self) -> None:
         for name in ("finger_thickness", "finger_width", "push_opening", "push_max_distance",

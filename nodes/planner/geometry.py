@@ -13,9 +13,11 @@ Footprints that only touch (a zero gap) do not collide: an overlap must exceed
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -45,6 +47,19 @@ class GripperGeometry:
     def from_config(cls, config: PlannerConfig, block_size: float) -> GripperGeometry:
         return cls(block_size, config.finger_thickness, config.finger_width,
                    config.approach_clearance, config.push_opening, config.push_contact_depth)
+
+    @classmethod
+    def from_params(cls, params: Mapping[str, Any]) -> GripperGeometry:
+        """From a plan's ``params`` (DESIGN §5); entries it lacks take the planner defaults."""
+        base = cls.from_config(PlannerConfig(), float(params.get("block_size", 0.0508)))
+        given = {f.name: float(params[f.name]) for f in dataclasses.fields(cls)
+                 if f.name in params}
+        return dataclasses.replace(base, **given)
+
+    @property
+    def approach_opening(self) -> float:
+        """Finger gap while a grasp descends: clearance on both sides of the block."""
+        return self.block_size + 2.0 * self.approach_clearance
 
     @property
     def finger_offset(self) -> float:

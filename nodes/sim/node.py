@@ -32,7 +32,7 @@ from visualization_msgs.msg import MarkerArray
 from msgs_py import BlockSet, MessageError
 from msgs_py.ros_codecs import block_set_to_markers, executor_status_from_string, ns_to_stamp
 from nodes.common.params import declare_config
-from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.layout import load_sim_scene, scene_problems
@@ -46,9 +46,6 @@ from nodes.sim.messages import (
 )
 from nodes.sim.world import SimWorld
 
-#: Camera frames: reliable, so a 3.7 MB frame is re-sent rather than lost over Fast DDS;
-#: best-effort (sensor-data) subscribers still match a reliable publisher.
-CAMERA_QOS = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE)
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 SERVICE_TIMEOUT_S = 60.0
 
@@ -64,6 +61,7 @@ class SimNode(Node):
                               noise_std=self.camera_config.noise_std)
         self._commands: collections.deque[Callable[[], None]] = collections.deque()
         self._stop = threading.Event()
+        self._blackout_until_ns = 0
         self._make_interfaces()
         self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
         self._thread.start()
@@ -88,8 +86,8 @@ class SimNode(Node):
         self.pub_tcp = self.create_publisher(PoseStamped, "/tcp_pose", RELIABLE)
         self.pub_truth = self.create_publisher(MarkerArray, "/sim/ground_truth", RELIABLE)
         self.pub_events = self.create_publisher(String, "/sim/events", LATCHED)
-        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA_QOS)
-        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA_QOS)
+        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
+        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
                                  RELIABLE, callback_group=group)
         self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
@@ -98,6 +96,8 @@ class SimNode(Node):
         self.create_subscription(String, "/executor/status", self._on_status, RELIABLE,
                                  callback_group=group)
         self.create_subscription(String, "/sim/disturb", self._on_disturb, RELIABLE,
+                                 callback_group=group)
+        self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
                                  callback_group=group)
         self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
         self.create_service(Trigger, "/camera/trigger", self._on_trigger, callback_group=group)
@@ -145,6 +145,18 @@ class SimNode(Node):
                 self.world.disturb(block, dx, dy)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/disturb refused: {err}")
+        self._commands.append(apply)
+
+    def _on_blackout(self, msg: Float64) -> None:
+        """Fault injection: drop every camera frame for the next ``msg.data`` sim seconds."""
+        seconds = float(msg.data)
+        if not math.isfinite(seconds) or seconds < 0:
+            self.get_logger().warning(f"/sim/camera_blackout refused: {seconds} s")
+            return
+
+        def apply() -> None:
+            self._blackout_until_ns = self.world.time_ns + round(seconds * 1e9)
+            self.get_logger().warning(f"camera frames dropped for {seconds:.1f} s (fault)")
         self._commands.append(apply)
 
     def _on_reset(self, request, response):
@@ -238,6 +250,8 @@ class SimNode(Node):
 
     def _publish_camera(self) -> int:
         stamp_ns = self.world.time_ns
+        if stamp_ns < self._blackout_until_ns:
+            return stamp_ns  # a dropped frame: nothing rendered, nothing published
         rgb = self.world.render()
         stamp = ns_to_stamp(stamp_ns)
         self.pub_image.publish(image_msg(stamp, rgb))
@@ -258,7 +272,8 @@ def _period_steps(physics_hz: float, rate_hz: float) -> int:
 
 TOPICS = """
 subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world), /gripper/command
-  (std_msgs/Float64, gap m), /executor/status (std_msgs/String JSON), /sim/disturb (String JSON)
+  (std_msgs/Float64, gap m), /executor/status (std_msgs/String JSON), /sim/disturb (String JSON),
+  /sim/camera_blackout (std_msgs/Float64, s: drop camera frames, fault injection)
 publishes:  /clock, /joint_states, /tcp_pose, /camera/image_raw (rgb8), /camera/camera_info,
   /sim/ground_truth (MarkerArray), /sim/events (String JSON)
 services:   /sim/reset, /camera/trigger (std_srvs/Trigger)

@@ -65,11 +65,14 @@ def _ros_value(value: Any) -> str:
 
 
 def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any] | None = None):
-    """Read a cell file; returns (launches to start, names that are not implemented)."""
+    """Read a cell file; returns (launches to start, names that are not implemented).
+
+    Parameter precedence, lowest first: the file's shared ``parameters``, a node's own
+    ``parameters``, then ``extra_params`` (the command line's, e.g. ``--scene``).
+    """
     data = yaml.safe_load(path.read_text()) or {}
     nodes = data.get("nodes") or {}
     shared = dict(data.get("parameters") or {})
-    shared.update(extra_params or {})
     unknown = [n for n in (*nodes, *only) if n not in NODE_MODULES]
     if unknown:
         raise SystemExit(f"densepack-cell: unknown node(s) {unknown}; known: {list(NODE_MODULES)}")
@@ -87,6 +90,7 @@ def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any]
         files = tuple(config_path(p) for p in spec.get("params", []))
         params = dict(shared)
         params.update(spec.get("parameters") or {})
+        params.update(extra_params or {})
         launches.append(NodeLaunch(name, module, files, params))
     return launches, missing
 
@@ -104,6 +108,7 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
     env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
     lock = threading.Lock()
     procs: dict[str, subprocess.Popen] = {}
+    pumps: list[threading.Thread] = []
     stop = threading.Event()
 
     def request_stop(*_: Any) -> None:
@@ -118,7 +123,9 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
             start_new_session=True,
         )
         procs[launch.name] = proc
-        threading.Thread(target=_pump, args=(launch.name, proc.stdout, lock), daemon=True).start()
+        pump = threading.Thread(target=_pump, args=(launch.name, proc.stdout, lock), daemon=True)
+        pump.start()
+        pumps.append(pump)
         print(f"[cell] started {launch.name} (pid {proc.pid})", flush=True)
 
     code = 0
@@ -133,6 +140,9 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
             break
         stop.wait(0.2)
     _terminate(procs)
+    for pump in pumps:  # forward every line the nodes wrote before they exited
+        pump.join(timeout=5.0)
+    print("[cell] all nodes stopped", flush=True)
     return code
 
 
@@ -148,7 +158,6 @@ def _terminate(procs: dict[str, subprocess.Popen]) -> None:
             print(f"[cell] {name} did not stop in {SHUTDOWN_GRACE_S} s; killing it", flush=True)
             proc.kill()
             proc.wait()
-    print("[cell] all nodes stopped", flush=True)
 
 
 # --- all nodes in this process ----------------------------------------------------------------

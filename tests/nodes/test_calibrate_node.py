@@ -16,7 +16,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from msgs_py import load_scene
 from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
 from nodes.common.paths import config_path
-from nodes.common.qos import SENSOR
+from nodes.common.qos import CAMERA
 from nodes.common.transforms import rotation_angle
 from nodes.detector.calibrate_cli import CalibrateNode
 from nodes.detector.camera_model import CameraModel, load_camera_pose
@@ -39,8 +39,8 @@ class Streamer:
     """Publishes frames of the board at ~5 Hz from a background thread until stopped."""
 
     def __init__(self, ros, camera: CameraModel) -> None:
-        self.images = ros.publisher("/camera/image_raw", Image, SENSOR)
-        self.infos = ros.publisher("/camera/camera_info", CameraInfo, SENSOR)
+        self.images = ros.publisher("/camera/image_raw", Image, CAMERA)
+        self.infos = ros.publisher("/camera/camera_info", CameraInfo, CAMERA)
         self.frames = [render_blocks(camera, BOARD, RenderStyle(noise_std=2.0,
                                                                 blur_sigma_px=0.6),
                                      rng=np.random.default_rng(k)) for k in range(3)]

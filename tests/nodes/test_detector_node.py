@@ -15,7 +15,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from msgs_py import BlockPose
 from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
 from msgs_py.ros_codecs import block_set_from_markers, ns_to_stamp, stamp_to_ns
-from nodes.common.qos import SENSOR
+from nodes.common.qos import CAMERA as CAMERA_QOS
 from nodes.detector.node import DetectorNode
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
 
@@ -46,8 +46,8 @@ class Camera:
 
     def __init__(self, ros) -> None:
         self.ros = ros
-        self.images = ros.publisher("/camera/image_raw", Image, SENSOR)
-        self.infos = ros.publisher("/camera/camera_info", CameraInfo, SENSOR)
+        self.images = ros.publisher("/camera/image_raw", Image, CAMERA_QOS)
+        self.infos = ros.publisher("/camera/camera_info", CameraInfo, CAMERA_QOS)
         ros.wait_for_subscribers(self.images)
         ros.wait_for_subscribers(self.infos)
         self.stamp_ns = 1_000_000_000

@@ -192,3 +192,24 @@ def test_densepack_sim_runs_and_echo_shows_camera_info_across_processes():
     assert "camera_optical_frame" in out.stdout and "plumb_bob" in out.stdout
     assert "IMAGE 1280 960 3686400" in listened, listened
     assert sim.returncode == 0, log
+
+
+def test_camera_blackout_drops_frames_for_a_while(ros):
+    """Fault injection for the cell benchmark: triggers answer but no frame is published."""
+    make_sim(ros)
+    frames: list[Image] = []
+    ros.probe.create_subscription(Image, "/camera/image_raw", frames.append,
+                                  qos_profile_sensor_data)
+    time.sleep(0.5)
+    pub = send(ros, "/sim/camera_blackout", Float64, Float64(data=1e6))
+    time.sleep(0.5)
+    assert ros.call_service("/camera/trigger", Trigger, timeout=30).success
+    time.sleep(2.0)
+    assert frames == []
+    pub.publish(Float64(data=0.0))  # blackout over
+    time.sleep(0.5)
+    assert ros.call_service("/camera/trigger", Trigger, timeout=30).success
+    deadline = time.monotonic() + 20
+    while not frames and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert len(frames) == 1

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import threading
 import time
 
 import pytest
@@ -17,18 +18,44 @@ from tests.helpers import script
 pytestmark = pytest.mark.ros
 
 
-def start_cell(*args: str) -> subprocess.Popen:
-    return subprocess.Popen(
-        [script("densepack-cell"), *args],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env=dict(os.environ, PYTHONUNBUFFERED="1"),
-    )
+class Cell:
+    """A densepack-cell process whose output is collected line by line as it comes."""
 
+    def __init__(self, *args: str) -> None:
+        self.proc = subprocess.Popen(
+            [script("densepack-cell"), *args],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        )
+        self.lines: list[str] = []
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
 
-def stop(proc: subprocess.Popen, sig=signal.SIGINT, timeout: float = 30.0) -> tuple[int, str]:
-    proc.send_signal(sig)
-    out, _ = proc.communicate(timeout=timeout)
-    return proc.returncode, out
+    def _read(self) -> None:
+        for line in iter(self.proc.stdout.readline, ""):
+            self.lines.append(line)
+
+    @property
+    def output(self) -> str:
+        return "".join(self.lines)
+
+    def wait_for_output(self, text: str, timeout: float = 60.0) -> None:
+        deadline = time.monotonic() + timeout
+        while text not in self.output:
+            assert time.monotonic() < deadline, f"no '{text}' in: {self.output}"
+            assert self.proc.poll() is None, f"the cell exited: {self.output}"
+            time.sleep(0.05)
+
+    def stop(self, sig=signal.SIGINT, timeout: float = 30.0) -> tuple[int, str]:
+        self.proc.send_signal(sig)
+        code = self.proc.wait(timeout=timeout)
+        self.reader.join(timeout=10)
+        return code, self.output
+
+    def finish(self, timeout: float = 60.0) -> tuple[int, str]:
+        code = self.proc.wait(timeout=timeout)
+        self.reader.join(timeout=10)
+        return code, self.output
 
 
 def test_list_names_the_node_set():
@@ -41,12 +68,13 @@ def test_list_names_the_node_set():
 @pytest.mark.parametrize("mode", [[], ["--in-process"]], ids=["processes", "in-process"])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_cell_runs_the_goal_node_and_stops_cleanly(ros, mode, sig):
-    proc = start_cell("--nodes", "goal", *mode)
+    cell = Cell("--nodes", "goal", *mode)
     try:
+        cell.wait_for_output("published the goal")
         msg = ros.wait_for_message("/goal_layout", String, timeout=60, qos=LATCHED)
         assert scene_from_string(msg).goal.n_slots == 9
     finally:
-        code, out = stop(proc, sig)
+        code, out = cell.stop(sig)
     assert code == 0, out
     assert "[goal]" in out and "published the goal" in out
     assert "[cell] all nodes stopped" in out
@@ -54,21 +82,21 @@ def test_cell_runs_the_goal_node_and_stops_cleanly(ros, mode, sig):
 
 @pytest.mark.parametrize("mode", [[], ["--in-process"]], ids=["processes", "in-process"])
 def test_cell_exits_non_zero_when_a_node_dies(mode):
-    proc = start_cell("--nodes", "goal", *mode, "--ros-args", "-p",
-                      "scene_file:=/nonexistent/scene.yaml")
+    cell = Cell("--nodes", "goal", *mode, "--ros-args", "-p",
+                "scene_file:=/nonexistent/scene.yaml")
     try:
-        out, _ = proc.communicate(timeout=60)
+        code, out = cell.finish(timeout=60)
     except subprocess.TimeoutExpired:
-        proc.kill()
+        cell.proc.kill()
         raise
-    assert proc.returncode != 0
+    assert code != 0
     assert "cannot read file" in out
 
 
 def test_cell_reports_missing_nodes_and_starts_the_rest():
-    proc = start_cell()
-    time.sleep(3.0)
-    code, out = stop(proc)
+    cell = Cell()
+    cell.wait_for_output("[cell] started goal")
+    code, out = cell.stop()
     assert code == 0, out
     import importlib.util
 
@@ -79,3 +107,16 @@ def test_cell_reports_missing_nodes_and_starts_the_rest():
     if missing:
         assert "not implemented yet, not started: " + ", ".join(missing) in out
     assert "[cell] started goal" in out
+
+
+def test_command_line_parameters_override_the_cell_file(tmp_path):
+    from nodes.tools.cell import load_cell
+
+    cell = tmp_path / "cell.yaml"
+    cell.write_text("parameters: {use_sim_time: true, scene_file: a.yaml}\n"
+                    "nodes:\n  goal:\n    parameters: {scene_file: b.yaml}\n")
+    (launch,), _ = load_cell(cell)
+    assert launch.parameters == {"use_sim_time": True, "scene_file": "b.yaml"}
+    (launch,), _ = load_cell(cell, extra_params={"scene_file": "/x/c.yaml"})
+    assert launch.parameters["scene_file"] == "/x/c.yaml"
+    assert launch.ros_args()[-2:] == ["-p", "scene_file:=/x/c.yaml"]

@@ -1,0 +1,98 @@
+"""Executor parameters (config/executor.yaml), declared on the node from this dataclass."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from nodes.common.params import param
+from nodes.executor.motion import Limits, ToolPose
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    rate_hz: float = param(100.0, "setpoint streaming rate (on ROS time)", unit="Hz")
+    auto_start: bool = param(True, "start executing as soon as a plan arrives")
+    travel_height: float = param(
+        0.15, "TCP height for moves above the blocks (a carried block clears 5 cm blocks)",
+        unit="m")
+    grasp_height: float = param(
+        0.012, "TCP (fingertip) height when closing on a block: pads grip its lower part",
+        unit="m")
+    place_drop: float = param(
+        0.002, "release a placed block this far above its resting height", unit="m")
+    push_height: float = param(
+        0.010, "fingertip height during a push: low on the face so the block does not tip",
+        unit="m")
+    push_backoff: float = param(
+        0.006, "after a push, back off this far along -d before lifting", unit="m")
+    speed: float = param(0.25, "max TCP speed for travel", unit="m/s")
+    accel: float = param(0.6, "max TCP acceleration for travel", unit="m/s^2")
+    descend_speed: float = param(0.10, "max TCP speed when descending or lifting", unit="m/s")
+    push_speed: float = param(0.03, "TCP speed along a push (slow: quasi-static sliding)",
+                              unit="m/s")
+    push_accel: float = param(0.1, "TCP acceleration along a push", unit="m/s^2")
+    yaw_rate: float = param(1.5, "max tool yaw rate", unit="rad/s")
+    gripper_settle_s: float = param(0.8, "wait after a gripper command", unit="s")
+    grip_command: float = param(
+        0.0, "opening commanded to grip: the force-limited fingers stop on the block", unit="m")
+    convergence_tol: float = param(
+        0.002, "measured TCP must come this close to a move's end point", unit="m")
+    convergence_timeout_s: float = param(
+        4.0, "give up waiting for convergence after the move's duration plus this", unit="s")
+    safe_box: tuple = param(
+        [-0.3, 1.4, -0.95, 0.95, 0.004, 0.9],
+        "box every setpoint must stay in: x_min, x_max, y_min, y_max, z_min, z_max", unit="m")
+    park_pose: tuple = param(
+        [0.25, -0.55, 0.40, 0.0], "TCP pose out of the camera's view: x, y, z, yaw",
+        unit="m, rad")
+    pos_tolerance: float = param(
+        0.002, "a block further than this from its expected pose needs a correction",
+        unit="m")
+    yaw_tolerance_deg: float = param(1.5, "yaw tolerance (modulo 90 degrees)", unit="deg")
+    observe_every_action: bool = param(
+        True, "park and take a fresh detection after every action (closed loop)")
+    detection_timeout_s: float = param(
+        6.0, "wait this long for a detection after a camera trigger", unit="s")
+    detection_retries: int = param(5, "camera triggers before giving up on a detection")
+    idle_look_period_s: float = param(
+        5.0, "without a plan: park and trigger the camera this often, so the planner sees the "
+        "blocks with the arm out of view (0 = never)", unit="s")
+    max_replans: int = param(6, "replans (drift corrections) before the executor gives up")
+    replan_timeout_s: float = param(60.0, "wait this long for a new plan", unit="s")
+
+    def __post_init__(self) -> None:
+        if self.rate_hz <= 0:
+            raise ValueError(f"parameter 'rate_hz' must be > 0, got {self.rate_hz}")
+        if len(self.safe_box) != 6:
+            raise ValueError(f"parameter 'safe_box' needs 6 numbers, got {list(self.safe_box)}")
+        if len(self.park_pose) != 4:
+            raise ValueError(f"parameter 'park_pose' needs x, y, z, yaw, got {self.park_pose}")
+        if not self.grasp_height < self.travel_height:
+            raise ValueError("parameter 'grasp_height' must be below 'travel_height'")
+        if not self.in_safe_box(self.park):
+            raise ValueError(f"parameter 'park_pose' {self.park_pose} is outside 'safe_box'")
+
+    @property
+    def park(self) -> ToolPose:
+        return ToolPose(*self.park_pose)
+
+    @property
+    def yaw_tolerance(self) -> float:
+        return math.radians(self.yaw_tolerance_deg)
+
+    @property
+    def travel_limits(self) -> Limits:
+        return Limits(self.speed, self.accel, self.yaw_rate)
+
+    @property
+    def vertical_limits(self) -> Limits:
+        return Limits(self.descend_speed, self.accel, self.yaw_rate)
+
+    @property
+    def push_limits(self) -> Limits:
+        return Limits(self.push_speed, self.push_accel, self.yaw_rate)
+
+    def in_safe_box(self, pose: ToolPose) -> bool:
+        x0, x1, y0, y1, z0, z1 = self.safe_box
+        return x0 <= pose.x <= x1 and y0 <= pose.y <= y1 and z0 <= pose.z <= z1

@@ -1,0 +1,495 @@
+"""The executor's closed loop, free of ROS: plan in, setpoints and requests out.
+
+The node feeds ``ExecutorCore`` with plans, detections, the measured TCP and start/stop
+requests, and calls ``tick(now)`` at the streaming rate; the core answers with the
+setpoint and gripper command to publish and whether to trigger the camera or ask the
+planner for a new plan. The loop, per the paper's cell plus perception feedback:
+
+    observe (arm parked) -> check the world is as expected -> run action k -> observe -> ...
+
+Before the first action and after each action the arm parks out of the camera's view and
+the core waits for a detection taken after that moment. If every block stands within
+tolerance of where it should, the next action starts from the *perceived* poses; if not,
+the core asks the planner to replan from the perceived state (at most ``max_replans``
+times). After the last action every block is verified against the goal. Errors (a target
+outside the safe box, a TCP that does not converge, a plan naming blocks nobody has seen)
+stop the arm safely: lift, park, and report the reason.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+
+from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.motion import ToolPose
+from nodes.executor.primitives import action_steps, expected_after, park_steps
+from nodes.executor.recovery import free_spot, holds_block
+from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
+from nodes.executor.verify import deviations, goal_errors
+from nodes.planner.geometry import GripperGeometry
+
+
+class Phase(enum.Enum):
+    IDLE = "idle"
+    RUNNING = "running"
+    OBSERVING = "observing"
+    REPLANNING = "replanning"
+    STOPPING = "stopping"
+    STOPPED = "stopped"
+    DONE = "done"
+    FAILED = "failed"
+
+
+@dataclass
+class Outputs:
+    """Side effects the node must carry out after a tick."""
+
+    setpoint: ToolPose | None = None
+    gripper: float | None = None
+    trigger_camera: bool = False
+    request_replan: bool = False
+    log: list[str] = field(default_factory=list)
+
+
+class ExecutorCore:
+    def __init__(self, cfg: ExecutorConfig) -> None:
+        self.cfg = cfg
+        self.phase = Phase.IDLE
+        self.plan: Plan | None = None
+        self.geo = GripperGeometry.from_params({})
+        self.index = 0  # next action to run (0-based)
+        self.tcp: ToolPose | None = None
+        self.perceived: dict[int, Pose2D] = {}
+        self.expected: dict[int, Pose2D] = {}
+        self.holding: int | None = None
+        self._held_from: Pose2D | None = None  # where the held block was picked up
+        self.commanded: ToolPose | None = None  # last setpoint streamed
+        self.finger_gap: float | None = None
+        self._recovering = False  # holding an unknown block at start-up
+        self._checked_fingers = False
+        self.last_error = ""
+        self.detail = ""
+        self.runner: StepRunner | None = None
+        self._after_runner: str = ""  # what to do when the runner finishes
+        self._observe_purpose = ""
+        self._trigger_ns: int | None = None
+        self._trigger_time = 0.0
+        self._triggers = 0
+        self._replans = 0
+        self._replan_sent_at: float | None = None
+        self._rejected_plans: set[str] = set()
+        self._pending_plan: Plan | None = None
+        self._stop_requested = False
+        self._start_requested = cfg.auto_start
+        self.metrics: dict[str, float] = {
+            "actions_executed": 0.0, "replans": 0.0, "observations": 0.0,
+            "execution_time_s": 0.0,
+        }
+        self._started_at: float | None = None
+        self._last_idle_look: float | None = None
+        self._out = Outputs()
+        self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
+
+    # --- inputs ---------------------------------------------------------------------------------
+    def on_tcp(self, pose: ToolPose) -> None:
+        self.tcp = pose
+
+    def on_finger_gap(self, gap: float) -> None:
+        """The measured gap between the pads (m): tells whether the fingers hold a block."""
+        self.finger_gap = gap
+
+    def on_detection(self, detection: BlockSet) -> None:
+        """Take a detection; only one taken after our camera trigger counts as an observation."""
+        if self.phase is not Phase.OBSERVING or self._trigger_ns is None:
+            return
+        if detection.stamp_ns < self._trigger_ns:
+            return
+        self._trigger_ns = None
+        self.metrics["observations"] += 1
+        self.perceived = {b.id: b.pose for b in detection.blocks}
+        self._judge_observation(detection)
+
+    def on_plan(self, plan: Plan) -> None:
+        if self.plan is not None and plan.plan_id and plan.plan_id == self.plan.plan_id:
+            return  # the same latched plan again
+        if plan.plan_id in self._rejected_plans:
+            return
+        if self.phase in (Phase.RUNNING, Phase.OBSERVING, Phase.STOPPING):
+            self._pending_plan = plan  # finish the current action first
+            return
+        self._adopt(plan)
+
+    def request_start(self) -> str:
+        self._start_requested = True
+        self._stop_requested = False
+        if self.phase is Phase.STOPPED:
+            self.phase = Phase.IDLE
+            if self.holding is not None and self._held_from is not None:
+                self._put_back_held_block()
+                return f"putting block {self.holding} back, then resuming"
+        return "starting" if self.plan is not None else "waiting for a plan"
+
+    def request_stop(self) -> str:
+        self._stop_requested = True
+        self._start_requested = False
+        if self.phase in (Phase.RUNNING, Phase.OBSERVING, Phase.REPLANNING):
+            self._stop_safely("stop requested", failed=False)
+        elif self.phase is Phase.IDLE:
+            self.phase = Phase.STOPPED
+        return "stopping"
+
+    # --- the loop -------------------------------------------------------------------------------
+    def tick(self, now: float) -> Outputs:
+        self._out = Outputs()
+        self._now = now
+        if self.tcp is None:
+            return self._out  # the arm has not reported yet: nothing safe to stream
+        if self._started_at is None and self.phase is Phase.RUNNING:
+            self._started_at = now
+        if (self.phase is Phase.IDLE and self.runner is None and self.plan is not None
+                and self._start_requested):
+            if not self._checked_fingers:
+                self._checked_fingers = True
+                if self.holding is None and holds_block(self.finger_gap, self.geo.block_size):
+                    self._log(f"the fingers hold something ({self.finger_gap * 1e3:.1f} mm "
+                              "apart): parking with it, then looking which block it is")
+                    self._recovering = True
+                    self.holding = -1
+            self._observe("resume" if self.index > 0 else "verify_start")
+        if self.phase is Phase.IDLE and self.plan is None:
+            self._look_while_idle(now)
+        if self.runner is not None:
+            self._run(now)
+        elif self.phase is Phase.OBSERVING:
+            self._wait_for_detection(now)
+        elif self.phase is Phase.REPLANNING:
+            self._wait_for_plan(now)
+        if self._started_at is not None:
+            self.metrics["execution_time_s"] = now - self._started_at
+        self._out.log, self._pending_log = self._pending_log, []
+        return self._out
+
+    def _look_while_idle(self, now: float) -> None:
+        """No plan yet: park, and show the planner the blocks with the arm out of view."""
+        period = self.cfg.idle_look_period_s
+        if period <= 0 or self.runner is not None:
+            return
+        if self.commanded is None or self.commanded.distance_to(self.cfg.park) > 1e-6:
+            self._start_runner(park_steps(self.cfg), then="idle_parked")
+            return
+        if self._last_idle_look is None or now - self._last_idle_look >= period:
+            self._last_idle_look = now
+            self._out.trigger_camera = True
+
+    # --- status ---------------------------------------------------------------------------------
+    def status(self) -> ExecutorStatus:
+        total = len(self.plan.actions) if self.plan else 0
+        block = None
+        if self.plan and self.phase is Phase.RUNNING and self.index < total:
+            block = self.plan.actions[self.index].block
+        if self.holding is not None and self.holding >= 0:
+            block = self.holding
+        state = "correcting" if self.phase is Phase.REPLANNING else self.phase.value
+        return ExecutorStatus(
+            state=state,
+            plan_id=self.plan.plan_id if self.plan else "",
+            action_index=min(self.index + (1 if self.phase is Phase.RUNNING else 0), total),
+            action_total=total,
+            block=block,
+            last_error=self.last_error,
+            detail=self.detail,
+            metrics=dict(self.metrics, replans=float(self._replans)),
+        )
+
+    # --- internals: plans -------------------------------------------------------------------------
+    def _adopt(self, plan: Plan) -> None:
+        self.plan = plan
+        self.geo = GripperGeometry.from_params(plan.params)
+        self.index = 0
+        self.last_error = ""
+        self._pending_plan = None
+        self.detail = f"plan {plan.plan_id or '?'}: {len(plan.actions)} actions"
+        self._log(self.detail)
+        if self.phase in (Phase.REPLANNING,):
+            self._check_plan_start()
+        elif self.phase in (Phase.DONE, Phase.FAILED):
+            self.phase = Phase.IDLE
+            self._replans = 0
+
+    def _check_plan_start(self) -> None:
+        """A plan is run only if it starts from the world we see now."""
+        plan = self.plan
+        assert plan is not None
+        unknown = sorted({a.block for a in plan.actions} - set(self.perceived))
+        if unknown and self.perceived:
+            self._reject(plan, f"plan names block(s) {unknown} the camera has not seen")
+            return
+        start = {b.id: b.pose for b in plan.scene.blocks} if plan.scene else dict(self.perceived)
+        off, missing = deviations(self.perceived, start, self.cfg.pos_tolerance,
+                                  self.cfg.yaw_tolerance)
+        if off or missing:
+            why = "; ".join(d.describe() for d in off[:3]) or f"blocks {missing} not seen"
+            self._log(f"plan {plan.plan_id} starts from another state ({why}); replanning")
+            self._rejected_plans.add(plan.plan_id)
+            self._replan(f"plan start differs from perception: {why}")
+            return
+        self.expected = dict(self.perceived)
+        self.index = 0
+        if plan.actions:
+            self._next_action()
+        else:
+            self._verify_goal()
+
+    def _reject(self, plan: Plan, reason: str) -> None:
+        self._rejected_plans.add(plan.plan_id)
+        self._fail(reason)
+
+    # --- internals: observing ---------------------------------------------------------------------
+    def _observe(self, purpose: str) -> None:
+        self.phase = Phase.OBSERVING
+        self._observe_purpose = purpose
+        self._triggers = 0
+        self._trigger_ns = None
+        self._start_runner(park_steps(self.cfg), then="trigger")
+
+    def _trigger(self) -> None:
+        self._triggers += 1
+        self._trigger_time = self._now
+        self._trigger_ns = round(self._now * 1e9)
+        self._out.trigger_camera = True
+
+    def _wait_for_detection(self, now: float) -> None:
+        if self._trigger_ns is None:
+            return
+        if now - self._trigger_time < self.cfg.detection_timeout_s:
+            return
+        if self._triggers >= self.cfg.detection_retries:
+            self._fail(f"no detection after {self._triggers} camera triggers")
+            return
+        self._log(f"no detection {self.cfg.detection_timeout_s:.0f} s after the trigger; retrying")
+        self._trigger()
+
+    def _judge_observation(self, detection: BlockSet) -> None:
+        purpose = self._observe_purpose
+        plan = self.plan
+        if plan is None:
+            self.phase = Phase.IDLE
+            return
+        if self._recovering:
+            self._recover_held_block()
+            return
+        if purpose == "verify_start":
+            self._check_plan_start()
+            return
+        # after an action, or resuming after a stop: the world must be as expected
+        off, missing = deviations(self.perceived, self.expected, self.cfg.pos_tolerance,
+                                  self.cfg.yaw_tolerance)
+        if missing:
+            if self._triggers < self.cfg.detection_retries:
+                self._log(f"blocks {missing} not seen; looking again")
+                self._trigger()
+                return
+            self._fail(f"blocks {missing} are no longer seen by the camera")
+            return
+        if off:
+            why = "; ".join(d.describe() for d in off[:3])
+            self._replan(f"drift after action {self.index}: {why}")
+            return
+        self.expected = dict(self.perceived)
+        if self._pending_plan is not None:
+            pending, self._pending_plan = self._pending_plan, None
+            self._adopt(pending)
+            self._check_plan_start()
+            return
+        if self.index < len(plan.actions):
+            self._next_action()
+            return
+        self._verify_goal()
+
+    def _verify_goal(self) -> None:
+        assert self.plan is not None
+        if self.plan.scene is None:
+            self._finish("plan has no scene to verify against")
+            return
+        errors = goal_errors(self.perceived, self.plan.scene)
+        worst = max(errors, key=lambda d: d.position_error, default=None)
+        off = [d for d in errors
+               if d.position_error > self.cfg.pos_tolerance or d.yaw_error > self.cfg.yaw_tolerance]
+        if worst is not None:
+            self.metrics["final_pos_err_max_m"] = worst.position_error
+            self.metrics["final_yaw_err_max_deg"] = math.degrees(
+                max(d.yaw_error for d in errors))
+        if off:
+            self._replan("goal not reached: " + "; ".join(d.describe() for d in off[:3]))
+            return
+        self._finish(f"every block verified at its goal ({len(errors)} blocks)")
+
+    def _finish(self, detail: str) -> None:
+        self.phase = Phase.DONE
+        self.detail = detail
+        self._log(detail)
+
+    # --- internals: replanning --------------------------------------------------------------------
+    def _replan(self, reason: str) -> None:
+        if self._replans >= self.cfg.max_replans:
+            self._fail(f"gave up after {self._replans} replans; last: {reason}")
+            return
+        self._replans += 1
+        self.phase = Phase.REPLANNING
+        self.detail = reason
+        self._log(f"replanning ({self._replans}/{self.cfg.max_replans}): {reason}")
+        if self.plan is not None and self.plan.plan_id:
+            self._rejected_plans.add(self.plan.plan_id)
+        self._replan_sent_at = self._now
+        self._out.request_replan = True
+
+    def _wait_for_plan(self, now: float) -> None:
+        if self._pending_plan is not None:
+            pending, self._pending_plan = self._pending_plan, None
+            self._adopt(pending)
+            return
+        if self._replan_sent_at is not None and now - self._replan_sent_at > \
+                self.cfg.replan_timeout_s:
+            self._log("no new plan yet; asking again")
+            self._replan_sent_at = now
+            self._out.request_replan = True
+
+    # --- internals: acting ------------------------------------------------------------------------
+    def _next_action(self) -> None:
+        plan = self.plan
+        assert plan is not None
+        action = plan.actions[self.index]
+        start = self.expected.get(action.block)
+        if start is None:
+            self._fail(f"action {self.index + 1} moves block {action.block}, which is not seen")
+            return
+        self.phase = Phase.RUNNING
+        self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
+                      f"block {action.block}"
+        self._log(self.detail)
+        steps = action_steps(action, start, self.geo, self.cfg)
+        self._held_from = start
+        self.expected[action.block] = expected_after(action, start, self.geo)
+        self._start_runner(steps, then="action_done")
+
+    def _put_back_held_block(self) -> None:
+        """After a stop while carrying a block: set it down where it was picked up (known free)."""
+        assert self.holding is not None and self._held_from is not None
+        self._set_down_held_block(self.holding, self._held_from)
+
+    def _set_down_held_block(self, block: int, where: Pose2D) -> None:
+        self.detail = f"setting block {block} down at ({where.x:.3f}, {where.y:.3f})"
+        self._log(self.detail)
+        self.expected[block] = where
+        above = ToolPose(where.x, where.y, self.cfg.travel_height,
+                         (self.commanded or self.tcp).yaw)
+        steps: list[Step] = [
+            Rise(self.cfg.travel_height, self.cfg.vertical_limits, f"block {block}: rise"),
+            Move(above, self.cfg.travel_limits, f"block {block}: carry"),
+            Move(above.with_z(self.cfg.grasp_height + self.cfg.place_drop),
+                 self.cfg.vertical_limits, f"block {block}: lower"),
+            Grip(self.geo.approach_opening, self.cfg.gripper_settle_s, f"block {block}: release"),
+            Move(above, self.cfg.vertical_limits, f"block {block}: retreat"),
+        ]
+        self._start_runner(steps, then="put_back")
+
+    def _recover_held_block(self) -> None:
+        """The fingers held a block when this executor started: find which, set it down."""
+        self._recovering = False
+        plan = self.plan
+        assert plan is not None
+        known = {b.id: b.pose for b in plan.scene.blocks} if plan.scene else {}
+        unseen = sorted(set(known) - set(self.perceived))
+        if len(unseen) != 1:
+            self._log(f"the fingers seemed to hold a block, but {len(unseen)} blocks are "
+                      "unseen; opening the gripper here, out of the workspace")
+            self.holding = None
+            self._start_runner([Grip(self.geo.approach_opening, self.cfg.gripper_settle_s,
+                                     "open")], then="put_back")
+            return
+        block = unseen[0]
+        tool = self.commanded or self.tcp
+        assert tool is not None
+        workspace = plan.scene.workspace
+        spot = free_spot(self.perceived, workspace, self.geo, tool.yaw,
+                         (known[block].x, known[block].y),
+                         float(plan.params.get("table_margin", 0.05)))
+        if spot is None:
+            self._fail(f"holding block {block} and no free spot to set it down")
+            return
+        self.holding = block
+        self._set_down_held_block(block, spot)
+
+    def _start_runner(self, steps: list[Step], then: str) -> None:
+        start = self.commanded or self.tcp
+        assert start is not None
+        self.runner = StepRunner(steps, start, self.cfg.convergence_tol,
+                                 self.cfg.convergence_timeout_s, self.cfg.in_safe_box)
+        self._after_runner = then
+
+    def _run(self, now: float) -> None:
+        runner = self.runner
+        assert runner is not None
+        tick = runner.update(now, self.tcp)
+        self.commanded = tick.setpoint
+        self._out.setpoint = tick.setpoint
+        self._out.gripper = tick.gripper
+        if not runner.finished and runner.index > 0:
+            previous = runner.steps[runner.index - 1]
+            if isinstance(previous, Grip):
+                self.holding = previous.holds
+        if tick.error:
+            if self.phase is Phase.STOPPING:
+                self.runner = None
+                self.phase = Phase.FAILED
+                self.last_error = f"{self.last_error}; then {tick.error}"
+                return
+            self._stop_safely(tick.error, failed=True)
+            return
+        if not tick.done:
+            return
+        then, self.runner = self._after_runner, None
+        self._runner_done(then)
+
+    def _runner_done(self, then: str) -> None:
+        if then == "trigger":
+            self._trigger()
+        elif then == "action_done":
+            self.metrics["actions_executed"] += 1
+            self.holding = None
+            self.index += 1
+            if self._stop_requested:
+                self._stop_safely("stop requested", failed=False)
+            elif self.cfg.observe_every_action or self.index >= len(self.plan.actions):
+                self._observe("after_action")
+            else:
+                self._next_action()
+        elif then == "idle_parked":
+            pass
+        elif then == "put_back":
+            self.holding = None
+            self.phase = Phase.IDLE
+        elif then == "stopped":
+            self.phase = Phase.FAILED if self.last_error else Phase.STOPPED
+            self._log(f"arm parked: {self.phase.value}")
+
+    def _stop_safely(self, reason: str, failed: bool) -> None:
+        """Lift straight up, then park (still holding a gripped block: nowhere is known safe)."""
+        if failed:
+            self.last_error = reason
+        self.detail = reason
+        self._log(f"stopping: {reason}")
+        self.phase = Phase.STOPPING
+        self.runner = None
+        steps: list[Step] = [Rise(self.cfg.travel_height, self.cfg.vertical_limits, "stop: lift"),
+                             *park_steps(self.cfg)[1:]]
+        self._start_runner(steps, then="stopped")
+
+    def _fail(self, reason: str) -> None:
+        self._stop_safely(reason, failed=True)
+
+    def _log(self, line: str) -> None:
+        self._pending_log.append(line)

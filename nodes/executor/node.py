@@ -1,0 +1,193 @@
+"""``densepack-executor``: streams a plan to the arm as Cartesian setpoints, closing the loop.
+
+Subscriptions: ``/plan`` (String JSON, latched), ``/blocks/detected`` (MarkerArray),
+``/tcp_pose`` (PoseStamped). Publications: ``/arm/cartesian_setpoint`` (PoseStamped,
+world, gripper down), ``/gripper/command`` (Float64, m), ``/executor/status`` (String JSON,
+latched). Services: ``/executor/start``, ``/executor/stop`` (Trigger). Clients:
+``/camera/trigger`` (a fresh frame with the arm parked), ``/planner/replan``.
+All the behaviour lives in ``ExecutorCore``; this node only converts and forwards.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, String
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import MarkerArray
+
+from msgs_py import MessageError
+from msgs_py.ros_codecs import block_set_from_markers, plan_from_string, to_string_msg
+from nodes.common.params import declare_config
+from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.runner import NodeSpec, run_node
+from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.core import ExecutorCore
+from nodes.executor.motion import ToolPose
+
+FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
+
+TOPICS = """\
+subscribes: /plan (std_msgs/String JSON, latched),
+            /blocks/detected (visualization_msgs/MarkerArray),
+            /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState)
+publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
+            /gripper/command (std_msgs/Float64), /executor/status (std_msgs/String JSON, latched)
+services:   /executor/start, /executor/stop (std_srvs/Trigger)
+calls:      /camera/trigger, /planner/replan (std_srvs/Trigger)"""
+
+
+def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
+    p, q = msg.pose.position, msg.pose.orientation
+    yaw = yaw_of_matrix(quaternion_to_matrix((q.x, q.y, q.z, q.w)))
+    return ToolPose(p.x, p.y, p.z, yaw)
+
+
+class ExecutorNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("executor", **kwargs)
+        self.config = declare_config(self, ExecutorConfig)
+        self.core = ExecutorCore(self.config)
+        self.lock = threading.Lock()
+        self.setpoint_pub = self.create_publisher(PoseStamped, "/arm/cartesian_setpoint", RELIABLE)
+        self.gripper_pub = self.create_publisher(Float64, "/gripper/command", RELIABLE)
+        self.status_pub = self.create_publisher(String, "/executor/status", LATCHED)
+        self.create_subscription(String, "/plan", self.on_plan, LATCHED)
+        self.create_subscription(MarkerArray, "/blocks/detected", self.on_detection, RELIABLE)
+        self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
+        self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
+        self.create_service(Trigger, "/executor/start", self.on_start)
+        self.create_service(Trigger, "/executor/stop", self.on_stop)
+        self.camera = self.create_client(Trigger, "/camera/trigger")
+        self.replanner = self.create_client(Trigger, "/planner/replan")
+        self._last_status: dict | None = None
+        self._last_status_time = 0.0
+        self.create_timer(1.0 / self.config.rate_hz, self.on_tick)
+        self.get_logger().info(f"streaming at {self.config.rate_hz:.0f} Hz; waiting for /plan")
+
+    # --- inputs -----------------------------------------------------------------------------------
+    def on_plan(self, msg: String) -> None:
+        try:
+            plan = plan_from_string(msg)
+        except MessageError as err:
+            self.get_logger().warning(f"ignoring a malformed /plan: {err}")
+            return
+        with self.lock:
+            self.core.on_plan(plan)
+
+    def on_detection(self, msg: MarkerArray) -> None:
+        try:
+            detection = block_set_from_markers(msg)
+        except MessageError as err:
+            self.get_logger().warning(f"ignoring a malformed /blocks/detected: {err}")
+            return
+        with self.lock:
+            self.core.on_detection(detection)
+
+    def on_tcp(self, msg: PoseStamped) -> None:
+        try:
+            pose = tool_pose_from_msg(msg)
+        except ValueError as err:
+            self.get_logger().warning(f"ignoring a malformed /tcp_pose: {err}")
+            return
+        with self.lock:
+            self.core.on_tcp(pose)
+
+    def on_joints(self, msg: JointState) -> None:
+        """The pads' gap is the sum of the two finger joints (docs/contracts.md)."""
+        try:
+            gap = sum(msg.position[msg.name.index(n)] for n in FINGER_JOINTS)
+        except (ValueError, IndexError):
+            return  # another publisher's joints, or a partial message: not ours to judge
+        if math.isfinite(gap):
+            with self.lock:
+                self.core.on_finger_gap(float(gap))
+
+    def on_start(self, request: Trigger.Request, response: Trigger.Response):
+        with self.lock:
+            response.message = self.core.request_start()
+        response.success = True
+        return response
+
+    def on_stop(self, request: Trigger.Request, response: Trigger.Response):
+        with self.lock:
+            response.message = self.core.request_stop()
+        response.success = True
+        return response
+
+    # --- the streaming loop ----------------------------------------------------------------
+    def on_tick(self) -> None:
+        now = self.get_clock().now()
+        with self.lock:
+            out = self.core.tick(now.nanoseconds * 1e-9)
+            status = self.core.status()
+        for line in out.log:
+            self.get_logger().info(line)
+        if out.setpoint is not None:
+            self.setpoint_pub.publish(self._setpoint_msg(out.setpoint, now))
+        if out.gripper is not None:
+            self.gripper_pub.publish(Float64(data=float(out.gripper)))
+        if out.trigger_camera:
+            self._call(self.camera, "/camera/trigger")
+        if out.request_replan:
+            self._call(self.replanner, "/planner/replan")
+        self._publish_status(status, now.nanoseconds * 1e-9)
+
+    def _setpoint_msg(self, pose: ToolPose, now) -> PoseStamped:
+        msg = PoseStamped()
+        msg.header.stamp = now.to_msg()
+        msg.header.frame_id = "world"
+        msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = pose.x, pose.y, pose.z
+        q = tool_down_quaternion(pose.yaw)
+        o = msg.pose.orientation
+        o.x, o.y, o.z, o.w = (float(v) for v in q)
+        return msg
+
+    def _call(self, client, name: str) -> None:
+        if not client.service_is_ready():
+            self.get_logger().warning(f"{name} is not available; the executor will retry")
+            return
+        future = client.call_async(Trigger.Request())
+        future.add_done_callback(lambda f: self._log_answer(name, f))
+
+    def _log_answer(self, name: str, future) -> None:
+        try:
+            answer = future.result()
+        except Exception as err:  # a dying server: the core's timeouts retry
+            self.get_logger().warning(f"{name} failed: {err}")
+            return
+        if answer is not None and not answer.success:
+            self.get_logger().warning(f"{name} refused: {answer.message}")
+
+    def _publish_status(self, status, now_s: float) -> None:
+        """On every change of state/progress, and once a second with fresh metrics."""
+        summary = status.to_dict()
+        summary.pop("metrics")
+        if summary != self._last_status or now_s - self._last_status_time >= 1.0:
+            self.status_pub.publish(to_string_msg(status))
+            self._last_status = summary
+            self._last_status_time = now_s
+
+
+SPEC = NodeSpec(
+    "executor",
+    ExecutorNode,
+    "Streams a plan's actions to the arm as Cartesian setpoints and closes the loop on "
+    "perception (observe after each action, replan on drift, verify the goal).",
+    configs=(("", ExecutorConfig),),
+    topics=TOPICS,
+)
+
+
+def main(args=None) -> int:
+    return run_node(SPEC, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,117 @@
+"""Plan actions as step scripts, the way the paper's cell moves the real arm (Section IV).
+
+Travel happens above the blocks at ``travel_height``; the tool goes straight down over its
+target, acts, and comes straight back up. Geometry comes from the plan's own ``params``
+(docs/contracts.md), so the executor always does what the planner checked:
+
+* pick-and-place: open to ``block_size + 2 * approach_clearance``, descend centred on the
+  block, close (force-limited), lift, carry, descend, release, lift.
+* push: close to ``push_opening`` so both fingertips touch the rear face, descend just
+  behind the block (``push_contact_depth`` of free travel), push slowly along the line, back
+  off, lift.
+
+The block's *perceived* pose replaces the plan's ``from``: the grasp is centred on where
+the block really is, and a push is shortened or lengthened so the block ends where the
+plan wanted it along the push line.
+"""
+
+from __future__ import annotations
+
+import math
+
+from msgs_py import PickPlace, Pose2D, Push
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.motion import ToolPose, equivalent_yaw_near
+from nodes.executor.steps import Grip, Move, Rise, Step
+from nodes.planner.geometry import GripperGeometry
+
+
+def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
+    """The tool yaw for a closing axis: of yaw + k*pi, the one nearest the park yaw.
+
+    A two-finger grasp is the same under a half turn, so every tool yaw can stay within a
+    quarter turn of one neutral yaw. Choosing relative to the *current* yaw instead lets the
+    wrist wander action after action until the IK must change branch (a joint at its limit),
+    and the arm then leaves the straight line for a joint-space swing.
+    """
+    return equivalent_yaw_near(closing_axis_yaw, cfg.park.yaw)
+
+
+def pick_place_steps(
+    action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
+) -> list[Step]:
+    """Steps for ``action`` with the block perceived at ``start``."""
+    pick_yaw = tool_yaw(start.theta + action.grasp * math.pi / 2, cfg)
+    turn = math.remainder(action.to.theta - start.theta, 2 * math.pi)
+    place_yaw = tool_yaw(pick_yaw + turn, cfg)
+    pick = ToolPose(start.x, start.y, cfg.travel_height, pick_yaw)
+    place = ToolPose(action.to.x, action.to.y, cfg.travel_height, place_yaw)
+    tag = f"block {action.block}"
+    return [
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise"),
+        Grip(geo.approach_opening, 0.0, f"{tag}: open"),
+        Move(pick, cfg.travel_limits, f"{tag}: travel above"),
+        Move(pick.with_z(cfg.grasp_height), cfg.vertical_limits, f"{tag}: descend"),
+        Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block),
+        Move(pick, cfg.vertical_limits, f"{tag}: lift"),
+        Move(place, cfg.travel_limits, f"{tag}: carry"),
+        Move(place.with_z(cfg.grasp_height + cfg.place_drop), cfg.vertical_limits,
+             f"{tag}: lower"),
+        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release"),
+        Move(place, cfg.vertical_limits, f"{tag}: retreat"),
+    ]
+
+
+def push_geometry(action: Push, start: Pose2D, geo: GripperGeometry) -> tuple[float, float]:
+    """(push distance from the perceived start, TCP offset behind the block centre)."""
+    dx, dy = action.direction
+    distance = (action.to.x - start.x) * dx + (action.to.y - start.y) * dy
+    behind = geo.block_size / 2 + geo.push_contact_depth + geo.finger_width / 2
+    return distance, behind
+
+
+def push_steps(
+    action: Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
+) -> list[Step]:
+    """Steps for a two-fingertip push of ``action`` with the block perceived at ``start``."""
+    dx, dy = action.direction
+    distance, behind = push_geometry(action, start, geo)
+    yaw = tool_yaw(math.atan2(dy, dx) + math.pi / 2, cfg)
+    contact = ToolPose(start.x - dx * behind, start.y - dy * behind, cfg.push_height, yaw)
+    travel = distance + geo.push_contact_depth
+    end = contact.offset(dx * travel, dy * travel)
+    back = end.offset(-dx * cfg.push_backoff, -dy * cfg.push_backoff)
+    tag = f"block {action.block}"
+    return [
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise"),
+        Grip(geo.push_opening, 0.0, f"{tag}: close to push"),
+        Move(contact.with_z(cfg.travel_height), cfg.travel_limits, f"{tag}: travel behind"),
+        Move(contact, cfg.vertical_limits, f"{tag}: descend behind"),
+        Move(end, cfg.push_limits, f"{tag}: push"),
+        Move(back, cfg.push_limits, f"{tag}: back off"),
+        Move(back.with_z(cfg.travel_height), cfg.vertical_limits, f"{tag}: retreat"),
+    ]
+
+
+def park_steps(cfg: ExecutorConfig) -> list[Step]:
+    return [
+        Rise(max(cfg.travel_height, 0.0), cfg.vertical_limits, "park: rise"),
+        Move(cfg.park, cfg.travel_limits, "park"),
+    ]
+
+
+def action_steps(
+    action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
+) -> list[Step]:
+    if isinstance(action, PickPlace):
+        return pick_place_steps(action, start, geo, cfg)
+    return push_steps(action, start, geo, cfg)
+
+
+def expected_after(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry) -> Pose2D:
+    """Where the block should stand after ``action`` started from the perceived ``start``."""
+    if isinstance(action, PickPlace):
+        return action.to
+    distance, _ = push_geometry(action, start, geo)
+    dx, dy = action.direction
+    return Pose2D(start.x + dx * distance, start.y + dy * distance, action.to.theta)

@@ -1,0 +1,147 @@
+"""``densepack-run``: the main job. Runs the whole cell on a scene and writes a run report.
+
+Starts the cell (sim, detector, planner, executor, goal publisher; one process each),
+prints one line per action with the planner's and executor's figures and a progress bar,
+and when the executor reports ``done`` or ``failed`` (or the time limit passes) stops the
+cell and writes a report folder: ``before.png`` / ``after.png`` (overhead camera),
+``plan.png`` (the first plan drawn), ``plan.json``, ``metrics.json`` (per-block final
+error against the goal from ``/sim/ground_truth``, actions, planning and execution time,
+unintended contacts and lost blocks from ``/sim/events``) and ``cell.log``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from msgs_py import Plan, load_scene, save_plan
+from nodes.common.paths import config_path
+from nodes.tools.cell_run import CellRun, RunMonitor, run, run_metrics
+
+EXIT_CODES = {"done": 0, "failed": 1, "crashed": 1, "timeout": 2}
+
+
+def image_to_png(msg: Any, path: Path) -> bool:
+    import cv2
+    import numpy as np
+
+    if msg is None or msg.encoding != "rgb8" or not msg.height:
+        return False
+    rows = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.step)
+    rgb = rows[:, : msg.width * 3].reshape(msg.height, msg.width, 3)
+    return bool(cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)))
+
+
+def draw_plan(plan: Plan, path: Path) -> bool:
+    try:
+        from nodes.planner.draw import draw_plan as planner_draw
+    except ImportError:
+        return False
+    if plan.scene is None:
+        return False
+    planner_draw(plan.scene, plan, path, title=f"plan {plan.plan_id}")
+    return True
+
+
+class Progress:
+    """One line per plan and per executor step, and a tqdm bar over the actions."""
+
+    def __init__(self, quiet: bool) -> None:
+        from tqdm import tqdm
+
+        self.bar = None if quiet else tqdm(total=1, unit="action", dynamic_ncols=True)
+        self.plans_seen = 0
+        self.last_line = ""
+
+    def say(self, line: str) -> None:
+        if self.bar is not None:
+            self.bar.write(line)
+        else:
+            print(line, flush=True)
+
+    def __call__(self, monitor: RunMonitor, wall: float) -> None:
+        with monitor.lock:
+            status, plans = monitor.executor_status, list(monitor.plans)
+        for plan in plans[self.plans_seen:]:
+            self.say(f"plan {plan.plan_id}: {len(plan.actions)} actions, planned in "
+                     f"{plan.planning_time_s:.2f} s (cost {plan.cost:.1f})")
+        self.plans_seen = len(plans)
+        if status is None:
+            return
+        line = f"[{status.action_index}/{status.action_total}] {status.state}: {status.detail}"
+        if line != self.last_line:
+            self.say(f"{line}  (sim {monitor.sim_time:.1f} s, wall {wall:.1f} s)")
+            self.last_line = line
+        if self.bar is not None:
+            self.bar.total = max(status.action_total, 1)
+            self.bar.n = status.action_index
+            self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="densepack-run", description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="scenes/default.yaml", help="scene file (config/)")
+    parser.add_argument("--report", type=Path, default=None, help="report folder (runs/<time>)")
+    parser.add_argument("--timeout", type=float, default=900.0, help="wall-time limit (s)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parser
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    import rclpy
+    from rclpy.context import Context
+
+    opts = build_parser().parse_args(args)
+    scene_file = config_path(opts.scene).resolve()
+    scene = load_scene(scene_file)
+    report = opts.report or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    report.mkdir(parents=True, exist_ok=True)
+    print(f"densepack-run: {len(scene.blocks)} blocks -> {scene.goal.n_slots} goal slots "
+          f"({scene_file.name}); node logs in {report / 'cell.log'}", flush=True)
+    context = Context()
+    rclpy.init(context=context)
+    progress = Progress(opts.quiet)
+    with open(report / "cell.log", "w") as log:
+        cell = CellRun(scene_file, log)
+        monitor = RunMonitor(context)
+        cell.start()
+        try:
+            result = run(cell, monitor, opts.timeout, progress)
+        finally:
+            progress.close()
+            cell.stop()
+    metrics = run_metrics(monitor, scene, result)
+    write_report(report, monitor, metrics)
+    monitor.node.destroy_node()
+    rclpy.try_shutdown(context=context)
+    return EXIT_CODES[result.outcome]
+
+
+def write_report(report: Path, monitor: RunMonitor, metrics: dict[str, Any]) -> None:
+    with monitor.lock:
+        first, last, plans = monitor.first_image, monitor.last_image, list(monitor.plans)
+    image_to_png(first, report / "before.png")
+    image_to_png(last, report / "after.png")
+    if plans:
+        save_plan(plans[0], report / "plan.json")
+        draw_plan(plans[0], report / "plan.png")
+    (report / "metrics.json").write_text(json.dumps(metrics, indent=2, default=str) + "\n")
+    worst = metrics["final_pos_err_max_m"]
+    print(f"densepack-run: {metrics['outcome']}; worst block "
+          f"{'n/a' if worst is None else f'{worst * 1e3:.2f} mm'}, "
+          f"{metrics['actions_executed']} actions, lost {metrics['blocks_lost']}, "
+          f"wall {metrics['wall_time_s']:.0f} s; report in {report}", flush=True)
+
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,272 @@
+"""The executor's closed loop against a scripted world: observe, act, verify, correct, stop."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+
+import pytest
+
+from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Push, Scene
+from msgs_py.scene import Workspace
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.core import ExecutorCore, Phase
+from nodes.executor.motion import ToolPose
+
+WS = Workspace(0.45, 0.95, -0.35, 0.35)
+CFG = ExecutorConfig(gripper_settle_s=0.2, detection_timeout_s=1.0, replan_timeout_s=5.0)
+DT = 0.02
+
+
+def scene(blocks, goal_poses):
+    return Scene(WS, 0.0508, tuple(blocks),
+                 Goal(slots=tuple(GoalSlot(p.x, p.y, p.theta, i) for i, p in goal_poses.items())))
+
+
+START = [BlockPose(1, 0.55, -0.2, 0.3), BlockPose(2, 0.80, 0.2, 0.0)]
+GOAL = {1: Pose2D(0.70, 0.0, 0.0), 2: Pose2D(0.7538, 0.0, 0.0)}
+
+
+def two_action_plan(plan_id="p1", blocks=START):
+    by_id = {b.id: b.pose for b in blocks}
+    push_from = Pose2D(0.8538, 0.0, 0.0)
+    return Plan(
+        (PickPlace(1, by_id[1], GOAL[1], 0),
+         PickPlace(2, by_id[2], push_from, 1),
+         Push(2, push_from, GOAL[2], (-1.0, 0.0), 0.1)),
+        plan_id=plan_id, scene=scene(blocks, GOAL),
+        params={"block_size": 0.0508, "approach_clearance": 0.008},
+    )
+
+
+class World:
+    """Perfect arm tracking; the camera sees what the executor expects, plus any disturbance."""
+
+    def __init__(self, core: ExecutorCore, blocks, camera_delay=0.3, camera_works=True):
+        self.core = core
+        self.blocks = {b.id: b.pose for b in blocks}
+        self.camera_delay = camera_delay
+        self.camera_works = camera_works
+        self.pending: list[tuple[float, int]] = []
+        self.replan_requests = 0
+        self.on_replan: Callable[[], Plan | None] = lambda: None
+        self.disturb: Callable[[int], None] = lambda actions_done: None
+        self.states: list[str] = []
+        self.logs: list[str] = []
+        self.max_speed = 0.0
+        core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
+
+    def run(self, until: Callable[[], bool], max_t: float = 600.0) -> None:
+        t = 0.0
+        last = None
+        done_before = 0
+        plans: list[tuple[float, Plan | None]] = []
+        held = self.core.holding
+        while t < max_t and not until():
+            out = self.core.tick(t)
+            self.logs += out.log
+            if out.setpoint is not None:
+                if last is not None:
+                    self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
+                last = out.setpoint
+                self.core.on_tcp(out.setpoint)
+            holding = self.core.holding
+            if held is not None and held >= 0 and holding is None:  # set down outside a plan
+                self.blocks[held] = self.core.expected[held]
+            held = holding
+            done = int(self.core.metrics["actions_executed"])
+            if done > done_before:  # an action finished: the block is where it was sent
+                action = self.core.plan.actions[self.core.index - 1]
+                self.blocks[action.block] = self.core.expected[action.block]
+                done_before = done
+                self.disturb(done)
+            if out.trigger_camera and self.camera_works:
+                self.pending.append((t + self.camera_delay, round(t * 1e9)))
+            for due, stamp in list(self.pending):
+                if t >= due:
+                    self.pending.remove((due, stamp))
+                    blocks = tuple(BlockPose(i, p.x, p.y, p.theta) for i, p in self.blocks.items())
+                    self.core.on_detection(BlockSet(blocks, stamp))
+            if out.request_replan:  # the planner answers a second later
+                self.replan_requests += 1
+                plans.append((t + 1.0, self.on_replan()))
+            for due, plan in list(plans):
+                if t >= due:
+                    plans.remove((due, plan))
+                    if plan is not None:
+                        self.core.on_plan(plan)
+            state = self.core.status().state
+            if not self.states or self.states[-1] != state:
+                self.states.append(state)
+            t += DT
+        assert until(), f"timed out in {self.core.phase}: {self.logs[-5:]}"
+        state = self.core.status().state
+        if self.states[-1] != state:
+            self.states.append(state)
+
+
+def test_a_plan_runs_observing_after_every_action_and_ends_verified():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    assert world.states == ["observing", "running", "observing", "running", "observing",
+                            "running", "observing", "done"]
+    assert core.metrics["actions_executed"] == 3 and core.metrics["observations"] == 4
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    assert world.max_speed <= CFG.speed * 1.01
+    status = core.status()
+    assert status.action_index == status.action_total == 3 and status.last_error == ""
+
+
+def test_drift_beyond_tolerance_asks_for_a_replan_and_resumes_with_the_new_plan():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def nudge(actions_done):
+        if actions_done == 1:  # a hand nudges block 1 by 4 mm after it was placed
+            p = world.blocks[1]
+            world.blocks[1] = Pose2D(p.x + 0.004, p.y, p.theta)
+
+    def replan():
+        blocks = [BlockPose(i, p.x, p.y, p.theta) for i, p in world.blocks.items()]
+        fix = PickPlace(1, world.blocks[1], GOAL[1], 0)
+        rest = two_action_plan("p2", blocks).actions[1:]
+        return Plan((fix, *rest), plan_id="p2", scene=scene(blocks, GOAL),
+                    params={"block_size": 0.0508})
+
+    world.disturb = nudge
+    world.on_replan = replan
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    assert world.replan_requests == 1
+    assert "correcting" in world.states
+    assert core.status().metrics["replans"] == 1
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+
+
+def test_a_plan_naming_an_unseen_block_stops_safely_with_the_reason():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    bad = Plan((PickPlace(7, Pose2D(0.6, 0.0), Pose2D(0.7, 0.1), 0),), plan_id="bad",
+               scene=scene(START, GOAL))
+    core.on_plan(bad)
+    world.run(lambda: core.phase is Phase.FAILED)
+    assert "block(s) [7]" in core.status().last_error
+    assert core.commanded == CFG.park  # parked
+
+
+def test_a_tcp_that_does_not_follow_stops_the_arm_and_reports():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.RUNNING)
+    frozen = core.tcp
+    t = 100.0
+    while core.phase is Phase.RUNNING and t < 200:
+        core.tick(t)
+        core.on_tcp(frozen)  # the arm holds still (an unreachable setpoint, say)
+        t += DT
+    assert core.phase is Phase.STOPPING
+    assert "TCP did not reach" in core.status().last_error
+
+
+def test_stop_while_carrying_then_start_puts_the_block_back_and_replans():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.holding == 1)
+    core.request_stop()
+    world.run(lambda: core.phase is Phase.STOPPED)
+    assert core.holding == 1 and core.commanded == CFG.park
+    replans = []
+    world.on_replan = lambda: replans.append(1) or None
+    core.request_start()
+    world.run(lambda: core.phase is Phase.RUNNING and core.index == 0 and core.holding is None,
+              max_t=200)
+    # block 1 is back where it was picked, the world matches plan p1's start again: resume
+    assert world.blocks[1].distance_to(START[0].pose) < 1e-9
+    assert replans == []
+
+
+def test_no_detection_is_retried_then_reported():
+    core = ExecutorCore(CFG)
+    world = World(core, START, camera_works=False)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase in (Phase.FAILED, Phase.STOPPING))
+    assert f"no detection after {CFG.detection_retries} camera triggers" in core.last_error
+
+
+def test_an_empty_plan_for_a_reached_goal_is_verified_and_done():
+    at_goal = [BlockPose(i, p.x, p.y, p.theta) for i, p in GOAL.items()]
+    core = ExecutorCore(CFG)
+    world = World(core, at_goal)
+    core.on_plan(Plan((), plan_id="empty", scene=scene(at_goal, GOAL)))
+    world.run(lambda: core.phase is Phase.DONE)
+    assert core.metrics["final_pos_err_max_m"] == pytest.approx(0.0)
+
+
+def test_a_plan_from_another_state_is_not_run_blindly():
+    """After an executor restart the latched plan may be stale: perception decides."""
+    core = ExecutorCore(CFG)
+    moved = [BlockPose(1, GOAL[1].x, GOAL[1].y, 0.0), START[1]]
+    world = World(core, moved)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.REPLANNING)
+    assert "plan start differs from perception" in core.detail
+    assert math.isclose(world.blocks[1].x, GOAL[1].x)
+
+
+def test_stop_between_actions_then_start_resumes_at_the_next_action():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.metrics["actions_executed"] == 1)
+    core.request_stop()
+    world.run(lambda: core.phase is Phase.STOPPED)
+    core.request_start()
+    world.run(lambda: core.phase is Phase.DONE)
+    assert world.replan_requests == 0 and core.metrics["actions_executed"] == 3
+
+
+def test_without_a_plan_the_arm_parks_and_the_camera_is_triggered_periodically():
+    core = ExecutorCore(CFG)
+    core.on_tcp(ToolPose(0.6, 0.0, 0.3, 0.0))  # somewhere over the table
+    triggers, t = [], 0.0
+    while t < 30.0:
+        out = core.tick(t)
+        if out.setpoint is not None:
+            core.on_tcp(out.setpoint)
+        if out.trigger_camera:
+            triggers.append(t)
+        t += DT
+    assert core.commanded == CFG.park
+    assert len(triggers) >= 3
+    gaps = [b - a for a, b in itertools.pairwise(triggers)]
+    assert all(g == pytest.approx(CFG.idle_look_period_s, abs=DT) for g in gaps)
+
+
+def test_a_block_found_in_the_fingers_at_start_up_is_set_down_then_the_plan_runs():
+    """An executor restarted while carrying: the sim's fingers still hold block 2, whose
+    pick-up spot is free, so it goes back there and the latched plan still applies."""
+    core = ExecutorCore(CFG)
+    world = World(core, [START[0]])  # the camera sees block 1 only: 2 is in the fingers
+    core.on_finger_gap(0.0508)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    assert any("setting block 2 down at (0.800, 0.200)" in line for line in world.logs)
+    assert world.replan_requests == 0
+
+
+def test_a_held_block_whose_spot_is_taken_goes_to_free_space_and_the_plan_is_redone():
+    core = ExecutorCore(CFG)
+    squatter = BlockPose(1, 0.80, 0.17, 0.0)  # block 1 now stands where 2 was picked up
+    world = World(core, [squatter])
+    core.on_finger_gap(0.0508)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.REPLANNING)
+    spot = core.expected[2]
+    assert spot.distance_to(squatter.pose) >= 0.0508 + 0.008  # clear of the squatter
+    assert WS.contains_square(spot, 0.0508)
+    assert core.holding is None and "plan start differs" in core.detail

@@ -1,0 +1,195 @@
+"""Setpoint streams of the primitives: speed and acceleration limits, safe box, push line."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from msgs_py import PickPlace, Pose2D, Push
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.motion import Limits, LinearMove, ToolPose, minimum_jerk_duration
+from nodes.executor.primitives import (
+    action_steps,
+    expected_after,
+    park_steps,
+    push_steps,
+)
+from nodes.executor.steps import Grip, Move, StepRunner
+from nodes.planner.geometry import GripperGeometry
+
+CFG = ExecutorConfig()
+GEO = GripperGeometry.from_params({})
+RATE = 200.0
+
+
+HOME = ToolPose(0.5, 0.0, 0.3, 0.0)
+
+
+def play(steps, start=HOME, cfg=CFG, lag=0):
+    """Stream a script with a perfectly tracking arm; returns [(t, label, setpoint, gripper)]."""
+    runner = StepRunner(steps, start, cfg.convergence_tol, cfg.convergence_timeout_s,
+                        cfg.in_safe_box)
+    out, t, history = [], 0.0, [start]
+    while not runner.finished:
+        tick = runner.update(t, history[max(0, len(history) - 1 - lag)])
+        assert not tick.error, tick.error
+        out.append((t, tick.label, tick.setpoint, tick.gripper))
+        history.append(tick.setpoint)
+        t += 1.0 / RATE
+        assert t < 600, "script never finished"
+    return out
+
+
+def speeds(stream):
+    pos = np.array([s.position for _, _, s, _ in stream])
+    v = np.linalg.norm(np.diff(pos, axis=0), axis=1) * RATE
+    return v, np.abs(np.diff(v)) * RATE
+
+
+@given(st.one_of(st.just(0.0), st.floats(1e-4, 1.0)), st.floats(0.05, 1.0), st.floats(0.1, 2.0),
+       st.one_of(st.just(0.0), st.floats(1e-3, 3.0)))
+def test_minimum_jerk_move_respects_its_limits(distance, speed, accel, dyaw):
+    limits = Limits(speed, accel, 1.5, 3.0)
+    move = LinearMove.plan(ToolPose(0, 0, 0.2, 0), ToolPose(distance, 0, 0.2, dyaw), limits)
+    ts = np.linspace(0, move.duration, 2001)
+    xs = np.array([move.sample(t).x for t in ts])
+    if move.duration > 0:
+        dt = ts[1] - ts[0]
+        assert np.max(np.abs(np.diff(xs))) / dt <= speed * 1.001
+        assert np.max(np.abs(np.diff(xs, 2))) / dt**2 <= accel * 1.01
+    assert move.sample(move.duration) == move.end
+    assert move.duration >= minimum_jerk_duration(distance, speed, accel)
+
+
+def pick():
+    return PickPlace(3, Pose2D(0.55, -0.2, 0.4), Pose2D(0.70, 0.05, 0.0), grasp=1)
+
+
+def push():
+    start = Pose2D(0.60, 0.10, 0.3)
+    d = (math.cos(0.3), math.sin(0.3))
+    return Push(4, start, Pose2D(start.x + d[0] * 0.12, start.y + d[1] * 0.12, 0.3), d, 0.12)
+
+
+@pytest.mark.parametrize("action", [pick(), push()], ids=["pick_place", "push"])
+def test_streams_respect_speed_limits_and_safe_box(action):
+    stream = play(action_steps(action, action.from_, GEO, CFG) + park_steps(CFG))
+    v, a = speeds(stream)
+    assert v.max() <= CFG.speed * 1.01
+    assert a.max() <= CFG.accel * 1.05
+    assert all(CFG.in_safe_box(s) for _, _, s, _ in stream)
+    pushing = [s for _, label, s, _ in stream if label.endswith(": push")]
+    if pushing:
+        v_push, _ = speeds([(0, "", s, None) for s in pushing])
+        assert v_push.max() <= CFG.push_speed * 1.01
+
+
+def test_travel_happens_above_the_blocks():
+    stream = play(action_steps(pick(), pick().from_, GEO, CFG))
+    for _, label, s, _ in stream:
+        if label.endswith(("travel above", "carry")):
+            assert s.z == pytest.approx(CFG.travel_height)
+
+
+def test_pick_place_grips_centred_with_the_right_axis_and_places_at_the_goal():
+    action = pick()
+    steps = action_steps(action, action.from_, GEO, CFG)
+    descend = next(s for s in steps if isinstance(s, Move) and s.label.endswith("descend"))
+    assert (descend.target.x, descend.target.y) == (0.55, -0.2)
+    assert descend.target.z == CFG.grasp_height
+    # grasp 1 closes along the block's local y axis: tool yaw = theta + 90 deg (mod 180)
+    assert math.remainder(descend.target.yaw - (0.4 + math.pi / 2), math.pi) == pytest.approx(0)
+    lower = next(s for s in steps if isinstance(s, Move) and s.label.endswith("lower"))
+    assert (lower.target.x, lower.target.y) == (0.70, 0.05)
+    # the tool turns by exactly the block's change of yaw (mod 180 deg)
+    turn = lower.target.yaw - descend.target.yaw
+    assert math.remainder(turn - (0.0 - 0.4), math.pi) == pytest.approx(0, abs=1e-12)
+    grips = [s for s in steps if isinstance(s, Grip)]
+    assert grips[0].opening == pytest.approx(0.0508 + 2 * GEO.approach_clearance)
+    assert grips[1].opening == CFG.grip_command
+
+
+def test_push_streams_along_the_line_through_the_block_centre():
+    action = push()
+    stream = play(push_steps(action, action.from_, GEO, CFG))
+    d = np.array(action.direction)
+    normal = np.array([-d[1], d[0]])
+    centre = np.array([action.from_.x, action.from_.y])
+    pushing = [s for _, label, s, _ in stream if label.endswith((": push", "descend behind"))]
+    for s in pushing:
+        assert abs(normal @ (np.array([s.x, s.y]) - centre)) < 1e-9  # on the push line
+    low = [s for s in pushing if s.z == pytest.approx(CFG.push_height)]
+    # fingertips start push_contact_depth behind the rear face, end on the goal's rear face
+    front = GEO.finger_width / 2
+    start_gap = (centre - [low[0].x, low[0].y]) @ d - GEO.block_size / 2 - front
+    assert start_gap == pytest.approx(GEO.push_contact_depth)
+    end_face = ([low[-1].x, low[-1].y] - np.array([action.to.x, action.to.y])) @ d + front
+    assert end_face == pytest.approx(-GEO.block_size / 2)
+    # the closing axis is perpendicular to the push
+    assert abs(math.cos(low[0].yaw - math.atan2(d[1], d[0]))) < 1e-9
+
+
+def test_push_from_a_perceived_pose_ends_at_the_planned_point_along_the_line():
+    action = push()
+    d = np.array(action.direction)
+    perceived = Pose2D(action.from_.x - 0.002 * d[0], action.from_.y - 0.002 * d[1], 0.3)
+    end = expected_after(action, perceived, GEO)
+    assert (end.x, end.y) == pytest.approx((action.to.x, action.to.y))
+
+
+def test_a_step_outside_the_safe_box_is_refused_with_its_name():
+    far = PickPlace(1, Pose2D(0.6, 0.0), Pose2D(1.6, 0.0), 0)
+    runner = StepRunner(action_steps(far, far.from_, GEO, CFG), ToolPose(0.5, 0, 0.3, 0),
+                        CFG.convergence_tol, CFG.convergence_timeout_s, CFG.in_safe_box)
+    t, tick = 0.0, None
+    while t < 60:
+        tick = runner.update(t, runner.commanded)
+        if tick.error:
+            break
+        t += 0.01
+    assert "carry" in tick.error and "outside the safe box" in tick.error
+
+
+def test_a_tcp_that_never_arrives_is_reported():
+    runner = StepRunner([Move(ToolPose(0.6, 0, 0.2, 0), CFG.travel_limits, "go")],
+                        ToolPose(0.5, 0, 0.2, 0), 0.002, 1.0)
+    stuck = ToolPose(0.5, 0, 0.2, 0)
+    t = 0.0
+    while t < 10 and not (tick := runner.update(t, stuck)).error:
+        t += 0.01
+    assert "TCP did not reach" in tick.error and "100.0 mm" in tick.error
+
+
+def test_a_lagging_arm_delays_but_does_not_break_the_script():
+    stream = play(action_steps(pick(), pick().from_, GEO, CFG), lag=20)
+    assert stream[-1][2].z == pytest.approx(CFG.travel_height)
+
+
+def test_config_rejects_a_park_pose_outside_the_safe_box():
+    with pytest.raises(ValueError, match="park_pose"):
+        ExecutorConfig(park_pose=(3.0, 0.0, 0.5, 0.0))
+
+
+def test_a_zero_wait_grip_still_reaches_the_gripper():
+    """Regression: the push's 'close to push' (no settle time) was swallowed by the next move."""
+    action = push()
+    stream = play(push_steps(action, action.from_, GEO, CFG))
+    commands = [g for _, _, _, g in stream if g is not None]
+    assert commands == [GEO.push_opening]
+
+
+def test_tool_yaws_stay_within_a_quarter_turn_of_the_park_yaw():
+    """Regression: yaws chosen relative to the current one wandered action after action
+    until the wrist ran into its limit and the IK swung the arm onto another branch."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        theta, to_theta = rng.uniform(-math.pi, math.pi, 2)
+        action = PickPlace(1, Pose2D(0.6, 0.0, theta), Pose2D(0.7, 0.1, to_theta),
+                           int(rng.integers(2)))
+        for step in action_steps(action, action.from_, GEO, CFG):
+            if isinstance(step, Move):
+                assert abs(step.target.yaw - CFG.park.yaw) <= math.pi / 2 + 1e-9

@@ -1,0 +1,36 @@
+"""The README is the front door: its node sections list every declared parameter."""
+
+from __future__ import annotations
+
+import importlib
+import re
+
+import pytest
+
+from nodes.common.params import describe_config
+from tests.helpers import REPO
+
+README = (REPO / "README.md").read_text()
+NODE_MODULES = ["nodes.sim.node", "nodes.detector.node", "nodes.planner.node",
+                "nodes.executor.node", "nodes.tools.goal"]
+
+
+def section(name: str) -> str:
+    match = re.search(rf"^### {name} \(.*?(?=^### |^## )", README, re.S | re.M)
+    assert match, f"README has no '### {name} (...)' section"
+    return match.group(0)
+
+
+@pytest.mark.parametrize("module", NODE_MODULES)
+def test_every_parameter_is_in_the_readme_section_of_its_node(module):
+    spec = importlib.import_module(module).SPEC
+    text = section(spec.name)
+    missing = [row["name"] for prefix, cls in spec.configs for row in describe_config(cls, prefix)
+               if f"`{row['name']}`" not in text and f"`{row['name'].split('.')[-1]}`" not in text]
+    assert not missing, f"README section '{spec.name}' lacks parameters {missing}"
+
+
+def test_the_two_commands_are_at_the_top():
+    head = README[:2500]
+    assert "<!-- main-command -->" in head and "<!-- test-command -->" in head
+    assert "densepack-run" in head
