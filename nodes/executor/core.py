@@ -68,6 +68,7 @@ class ExecutorCore:
         self._held_from: Pose2D | None = None  # where the held block was picked up
         self.commanded: ToolPose | None = None  # last setpoint streamed
         self.finger_gap: float | None = None
+        self.tcp_stamp: float | None = None
         self._recovering = False  # holding an unknown block at start-up
         self._checked_fingers = False
         self.last_error = ""
@@ -96,8 +97,10 @@ class ExecutorCore:
         self._want_replan = False
 
     # --- inputs ---------------------------------------------------------------------------------
-    def on_tcp(self, pose: ToolPose) -> None:
+    def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
+        """The measured TCP, taken at ``stamp_s`` (ROS time, s; None: now)."""
         self.tcp = pose
+        self.tcp_stamp = stamp_s
 
     def on_finger_gap(self, gap: float) -> None:
         """The measured gap between the pads (m): tells whether the fingers hold a block."""
@@ -439,7 +442,7 @@ class ExecutorCore:
     def _run(self, now: float) -> None:
         runner = self.runner
         assert runner is not None
-        tick = runner.update(now, self.tcp)
+        tick = runner.update(now, self.tcp, self.tcp_stamp)
         self.commanded = tick.setpoint
         self._out.setpoint = tick.setpoint
         self._out.gripper = tick.gripper
