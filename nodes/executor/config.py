@@ -39,7 +39,8 @@ class ExecutorConfig:
     convergence_tol: float = param(
         0.002, "measured TCP must come this close to a move's end point", unit="m")
     convergence_timeout_s: float = param(
-        4.0, "give up waiting for convergence after the move's duration plus this", unit="s")
+        10.0, "give up when the TCP, measured this long after a move's end, is still not "
+        "there (generous: a setpoint can reach the arm late on a loaded machine)", unit="s")
     safe_box: tuple = param(
         [-0.3, 1.4, -0.95, 0.95, 0.004, 0.9],
         "box every setpoint must stay in: x_min, x_max, y_min, y_max, z_min, z_max", unit="m")

@@ -68,6 +68,7 @@ class ExecutorCore:
         self._held_from: Pose2D | None = None  # where the held block was picked up
         self.commanded: ToolPose | None = None  # last setpoint streamed
         self.finger_gap: float | None = None
+        self.tcp_stamp: float | None = None
         self._recovering = False  # holding an unknown block at start-up
         self._checked_fingers = False
         self.last_error = ""
@@ -92,10 +93,14 @@ class ExecutorCore:
         self._last_idle_look: float | None = None
         self._out = Outputs()
         self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
+        self._want_trigger = False
+        self._want_replan = False
 
     # --- inputs ---------------------------------------------------------------------------------
-    def on_tcp(self, pose: ToolPose) -> None:
+    def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
+        """The measured TCP, taken at ``stamp_s`` (ROS time, s; None: now)."""
         self.tcp = pose
+        self.tcp_stamp = stamp_s
 
     def on_finger_gap(self, gap: float) -> None:
         """The measured gap between the pads (m): tells whether the fingers hold a block."""
@@ -169,7 +174,11 @@ class ExecutorCore:
             self._wait_for_plan(now)
         if self._started_at is not None:
             self.metrics["execution_time_s"] = now - self._started_at
+        # Requests made by input callbacks (a detection that calls for a replan, say) since the
+        # last tick are handed on here: tick() is the only place outputs leave the core.
         self._out.log, self._pending_log = self._pending_log, []
+        self._out.trigger_camera, self._want_trigger = self._want_trigger, False
+        self._out.request_replan, self._want_replan = self._want_replan, False
         return self._out
 
     def _look_while_idle(self, now: float) -> None:
@@ -182,7 +191,7 @@ class ExecutorCore:
             return
         if self._last_idle_look is None or now - self._last_idle_look >= period:
             self._last_idle_look = now
-            self._out.trigger_camera = True
+            self._want_trigger = True
 
     # --- status ---------------------------------------------------------------------------------
     def status(self) -> ExecutorStatus:
@@ -259,7 +268,7 @@ class ExecutorCore:
         self._triggers += 1
         self._trigger_time = self._now
         self._trigger_ns = round(self._now * 1e9)
-        self._out.trigger_camera = True
+        self._want_trigger = True
 
     def _wait_for_detection(self, now: float) -> None:
         if self._trigger_ns is None:
@@ -344,7 +353,7 @@ class ExecutorCore:
         if self.plan is not None and self.plan.plan_id:
             self._rejected_plans.add(self.plan.plan_id)
         self._replan_sent_at = self._now
-        self._out.request_replan = True
+        self._want_replan = True
 
     def _wait_for_plan(self, now: float) -> None:
         if self._pending_plan is not None:
@@ -355,7 +364,7 @@ class ExecutorCore:
                 self.cfg.replan_timeout_s:
             self._log("no new plan yet; asking again")
             self._replan_sent_at = now
-            self._out.request_replan = True
+            self._want_replan = True
 
     # --- internals: acting ------------------------------------------------------------------------
     def _next_action(self) -> None:
@@ -433,7 +442,7 @@ class ExecutorCore:
     def _run(self, now: float) -> None:
         runner = self.runner
         assert runner is not None
-        tick = runner.update(now, self.tcp)
+        tick = runner.update(now, self.tcp, self.tcp_stamp)
         self.commanded = tick.setpoint
         self._out.setpoint = tick.setpoint
         self._out.gripper = tick.gripper

@@ -96,8 +96,9 @@ class ExecutorNode(Node):
         except ValueError as err:
             self.get_logger().warning(f"ignoring a malformed /tcp_pose: {err}")
             return
+        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         with self.lock:
-            self.core.on_tcp(pose)
+            self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
 
     def on_joints(self, msg: JointState) -> None:
         """The pads' gap is the sum of the two finger joints (docs/contracts.md)."""

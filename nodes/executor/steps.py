@@ -58,6 +58,10 @@ class Tick:
     label: str = ""
 
 
+#: With no fresh measurement at all, give up after this many convergence timeouts.
+STALE_FACTOR = 5.0
+
+
 class StepRunner:
     """Plays a step script from ``start`` (the last commanded tool pose)."""
 
@@ -75,6 +79,7 @@ class StepRunner:
         self.timeout = convergence_timeout_s
         self.in_safe_box = in_safe_box
         self.index = 0
+        self._measured_at = 0.0
         self._t0: float | None = None
         self._move: LinearMove | None = None
         self.gripper: float | None = None
@@ -88,12 +93,17 @@ class StepRunner:
     def current_label(self) -> str:
         return "" if self.finished else self.steps[self.index].label
 
-    def update(self, now: float, measured: ToolPose | None) -> Tick:
+    def update(self, now: float, measured: ToolPose | None,
+               measured_at: float | None = None) -> Tick:
         """Advance by time ``now`` (s); ``measured`` is the latest TCP (None if unknown).
 
         Steps that finish within this call hand their gripper command on, so a zero-wait
-        ``Grip`` followed at once by a move still reaches the gripper.
+        ``Grip`` followed at once by a move still reaches the gripper. ``measured_at`` is the
+        time the measurement was taken (default ``now``): a move fails to converge only on
+        measurements taken ``convergence_timeout_s`` after it ended, so a late /tcp_pose on a
+        loaded machine delays the verdict instead of faking a failure.
         """
+        self._measured_at = now if measured_at is None else measured_at
         gripper: float | None = None
         while not self.finished:
             step = self.steps[self.index]
@@ -115,7 +125,10 @@ class StepRunner:
         self._t0 = now
         self._gripper_sent = False
         if isinstance(step, Move | Rise):
-            target = step.target if isinstance(step, Move) else self.commanded.with_z(step.z)
+            if isinstance(step, Move):
+                target = step.target
+            else:  # a rise never goes down (parking from the park pose, say)
+                target = self.commanded.with_z(max(step.z, self.commanded.z))
             if not self.in_safe_box(target):
                 self._t0 = None
                 return (f"step '{step.label}' would go to ({target.x:.3f}, {target.y:.3f}, "
@@ -141,7 +154,8 @@ class StepRunner:
             return Tick(move.end, None, True, label=step.label)
         if measured is not None and measured.distance_to(move.end) <= self.tol:
             return Tick(move.end, None, True, label=step.label)
-        if t > move.duration + self.timeout:
+        late = self._measured_at - (self._t0 + move.duration)
+        if late > self.timeout or t > move.duration + STALE_FACTOR * self.timeout:
             off = ("unknown" if measured is None
                    else f"{measured.distance_to(move.end) * 1e3:.1f} mm: at "
                         f"({measured.x:.4f}, {measured.y:.4f}, {measured.z:.4f})")

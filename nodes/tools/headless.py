@@ -85,7 +85,7 @@ def run_headless(
         while world.time_s < max_sim_s and core.phase not in (Phase.DONE, Phase.FAILED):
             world.step(ticks)
             position, quat = world.tcp_pose()
-            core.on_tcp(ToolPose(*(float(v) for v in position), _yaw(quat)))
+            core.on_tcp(ToolPose(*(float(v) for v in position), _yaw(quat)), world.time_s)
             core.on_finger_gap(world.gap())
             out = core.tick(world.time_s)
             for line in out.log:

@@ -54,7 +54,9 @@ class Progress:
     def __init__(self, quiet: bool) -> None:
         from tqdm import tqdm
 
-        self.bar = None if quiet else tqdm(total=1, unit="action", dynamic_ncols=True)
+        # A bar redrawn into a log file is megabytes of carriage returns: lines only there.
+        live = not quiet and sys.stdout.isatty()
+        self.bar = tqdm(total=1, unit="action", dynamic_ncols=True) if live else None
         self.plans_seen = 0
         self.last_line = ""
 
@@ -92,7 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--scene", default="scenes/default.yaml", help="scene file (config/)")
     parser.add_argument("--report", type=Path, default=None, help="report folder (runs/<time>)")
     parser.add_argument("--timeout", type=float, default=900.0, help="wall-time limit (s)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress bar (there is none either when stdout is not a terminal)")
     return parser
 
 

@@ -270,3 +270,16 @@ def test_a_held_block_whose_spot_is_taken_goes_to_free_space_and_the_plan_is_red
     assert spot.distance_to(squatter.pose) >= 0.0508 + 0.008  # clear of the squatter
     assert WS.contains_square(spot, 0.0508)
     assert core.holding is None and "plan start differs" in core.detail
+
+
+def test_a_replan_asked_for_by_a_detection_callback_leaves_with_the_next_tick():
+    """Regression: a request made outside tick() (in the detection callback) was dropped."""
+    core = ExecutorCore(CFG)
+    moved = [BlockPose(1, GOAL[1].x, GOAL[1].y, 0.0), START[1]]
+    world = World(core, moved)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.OBSERVING and core._trigger_ns is not None)
+    core.on_detection(BlockSet(tuple(moved), core._trigger_ns))  # a callback, between ticks
+    assert core.phase is Phase.REPLANNING
+    assert core.tick(500.0).request_replan
+    assert not core.tick(500.01).request_replan
