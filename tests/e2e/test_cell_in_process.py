@@ -6,6 +6,7 @@ by the simulator's ground truth, none lost, no unintended contact.
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -14,38 +15,19 @@ from visualization_msgs.msg import MarkerArray
 
 from msgs_py import save_scene
 from msgs_py.ros_codecs import block_set_from_markers, executor_status_from_string
-from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED, RELIABLE
-from nodes.detector.node import DetectorNode
-from nodes.executor.node import ExecutorNode
 from nodes.executor.verify import goal_errors
-from nodes.planner.node import PlannerNode
 from nodes.sim.layout import random_sim_scene
-from nodes.sim.node import SimNode
-from nodes.tools.goal import GoalPublisher
+
+from .cell import start_cell
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
-
-
-def ros_args(*files: str, **params) -> list[str]:
-    args = ["--ros-args"]
-    for name in files:
-        args += ["--params-file", str(config_path(name))]
-    for key, value in {"use_sim_time": "true", **params}.items():
-        args += ["-p", f"{key}:={value}"]
-    return args
 
 
 def test_four_blocks_reach_their_grid_with_every_node_in_one_process(ros, tmp_path):
     scene = random_sim_scene(4, 0.08, seed=3)
     scene_file = save_scene(scene, tmp_path / "four.yaml")
-    ros.add(SimNode(context=ros.context, cli_args=ros_args(
-        "sim.yaml", scene_file=scene_file, real_time_factor=4.0, **{"camera.rate_hz": 0.0})))
-    ros.add(DetectorNode(context=ros.context, cli_args=ros_args(
-        "detector.yaml", "camera_calibration.yaml")))
-    ros.add(PlannerNode(context=ros.context, cli_args=ros_args("planner.yaml")))
-    ros.add(ExecutorNode(context=ros.context, cli_args=ros_args("executor.yaml")))
-    ros.add(GoalPublisher(context=ros.context, cli_args=ros_args(scene_file=scene_file)))
+    start_cell(ros, scene_file)
 
     final = ros.wait_for_message(
         "/executor/status", String,
@@ -62,6 +44,6 @@ def test_four_blocks_reach_their_grid_with_every_node_in_one_process(ros, tmp_pa
         assert e.position_error <= 0.003, e.describe()
         assert math.degrees(e.yaw_error) <= 2.0, e.describe()
     events = ros.wait_for_message("/sim/events", String, timeout=30, qos=LATCHED)
-    summary = __import__("json").loads(events.data)
+    summary = json.loads(events.data)
     assert summary["blocks_lost"] == 0
     assert summary["unintended_contacts"] == 0

@@ -7,7 +7,6 @@ import json
 import math
 
 import pytest
-from rclpy.parameter import Parameter
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
@@ -16,6 +15,8 @@ from msgs_py.ros_codecs import block_set_from_markers
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
 from nodes.planner.unlabeled.goal_check import unfilled_slots
+
+from .cell import start_cell
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -26,27 +27,12 @@ TOL_XY, TOL_YAW = 0.004, math.radians(3.0)
 
 
 def test_cell_fills_an_unlabeled_grid(ros):
-    executor = pytest.importorskip("nodes.executor.node")
-    from nodes.detector.camera_model import load_camera_pose
-    from nodes.detector.node import DetectorNode
-    from nodes.planner.node import PlannerNode
-    from nodes.sim.node import SimNode
-    from nodes.tools.goal import GoalPublisher
-
-    pose = load_camera_pose(config_path("camera_calibration.yaml"))
-    scene_param = [Parameter("scene_file", value=SCENE)]
-    ros.add(SimNode(context=ros.context, parameter_overrides=scene_param))
-    ros.add(DetectorNode(context=ros.context, parameter_overrides=[
-        Parameter("camera_pose.position", value=list(pose.position)),
-        Parameter("camera_pose.orientation_xyzw", value=list(pose.orientation_xyzw))]))
-    ros.add(PlannerNode(context=ros.context))
-    ros.add(executor.ExecutorNode(context=ros.context))
-    ros.add(GoalPublisher(context=ros.context, parameter_overrides=scene_param))
+    start_cell(ros, config_path(SCENE))
 
     plan = json.loads(ros.wait_for_message("/plan", String, timeout=120, qos=LATCHED).data)
     assert plan["planner"] == "pebble_graphs"
     final = ros.wait_for_message(
-        "/executor/status", String, qos=LATCHED, timeout=3600,
+        "/executor/status", String, qos=LATCHED, timeout=900,
         predicate=lambda m: json.loads(m.data)["state"] in ("done", "failed"))
     status = json.loads(final.data)
     assert status["state"] == "done", status["last_error"]
