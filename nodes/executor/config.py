@@ -51,6 +51,11 @@ class ExecutorConfig:
         0.002, "a block further than this from its expected pose needs a correction",
         unit="m")
     yaw_tolerance_deg: float = param(1.5, "yaw tolerance (modulo 90 degrees)", unit="deg")
+    accept_pos_tolerance: float = param(
+        0.003, "when the planner finds no correction, blocks this close to their goal end the "
+        "run as done (the residual is reported)", unit="m")
+    accept_yaw_tolerance_deg: float = param(
+        2.0, "... and this close in yaw (modulo 90 degrees)", unit="deg")
     observe_every_action: bool = param(
         True, "park and take a fresh detection after every action (closed loop)")
     detection_timeout_s: float = param(
@@ -81,6 +86,10 @@ class ExecutorConfig:
     @property
     def yaw_tolerance(self) -> float:
         return math.radians(self.yaw_tolerance_deg)
+
+    @property
+    def accept_yaw_tolerance(self) -> float:
+        return math.radians(self.accept_yaw_tolerance_deg)
 
     @property
     def travel_limits(self) -> Limits:

@@ -28,7 +28,7 @@ from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import action_steps, expected_after, park_steps
 from nodes.executor.recovery import free_spot, holds_block
 from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
-from nodes.executor.verify import deviations, goal_errors
+from nodes.executor.verify import Deviation, deviations, goal_errors
 from nodes.planner.geometry import GripperGeometry
 
 
@@ -126,6 +126,13 @@ class ExecutorCore:
             self._pending_plan = plan  # finish the current action first
             return
         self._adopt(plan)
+
+    def on_planner_failed(self, reason: str) -> None:
+        """The planner found no plan for our replan request: what is left may be beyond its
+        reach (a block a degree off in the middle of a dense grid can be neither grasped nor
+        pushed), and blocks within the acceptance tolerance of their goal then end the run."""
+        if self.phase is Phase.REPLANNING:
+            self._accept_residual(f"the planner found no correction ({reason})")
 
     def request_start(self) -> str:
         self._start_requested = True
@@ -323,18 +330,38 @@ class ExecutorCore:
         if self.plan.scene is None:
             self._finish("plan has no scene to verify against")
             return
-        errors = goal_errors(self.perceived, self.plan.scene)
-        worst = max(errors, key=lambda d: d.position_error, default=None)
+        errors = self._goal_errors()
         off = [d for d in errors
                if d.position_error > self.cfg.pos_tolerance or d.yaw_error > self.cfg.yaw_tolerance]
-        if worst is not None:
-            self.metrics["final_pos_err_max_m"] = worst.position_error
-            self.metrics["final_yaw_err_max_deg"] = math.degrees(
-                max(d.yaw_error for d in errors))
         if off:
             self._replan("goal not reached: " + "; ".join(d.describe() for d in off[:3]))
             return
         self._finish(f"every block verified at its goal ({len(errors)} blocks)")
+
+    def _goal_errors(self) -> list[Deviation]:
+        """Every goal slot's perceived error, also kept in the metrics (worst position, yaw)."""
+        assert self.plan is not None and self.plan.scene is not None
+        errors = goal_errors(self.perceived, self.plan.scene)
+        if errors:
+            self.metrics["final_pos_err_max_m"] = max(d.position_error for d in errors)
+            self.metrics["final_yaw_err_max_deg"] = math.degrees(
+                max(d.yaw_error for d in errors))
+        return errors
+
+    def _accept_residual(self, why: str) -> bool:
+        """Finish when every block is within the acceptance tolerance of its goal, the
+        residual named in the detail; False (nothing changed) otherwise."""
+        if self.plan is None or self.plan.scene is None or self.plan.scene.goal is None:
+            return False
+        errors = self._goal_errors()
+        if not errors or any(d.position_error > self.cfg.accept_pos_tolerance
+                             or d.yaw_error > self.cfg.accept_yaw_tolerance for d in errors):
+            return False
+        worst = max(errors, key=lambda d: (d.position_error / self.cfg.accept_pos_tolerance
+                                           + d.yaw_error / self.cfg.accept_yaw_tolerance))
+        self._finish(f"every block within the acceptance tolerance of its goal "
+                     f"({len(errors)} blocks; worst {worst.describe()}); {why}")
+        return True
 
     def _finish(self, detail: str) -> None:
         self.phase = Phase.DONE
@@ -362,6 +389,8 @@ class ExecutorCore:
             return
         if self._replan_sent_at is not None and now - self._replan_sent_at > \
                 self.cfg.replan_timeout_s:
+            if self._accept_residual("no correcting plan came"):
+                return
             self._log("no new plan yet; asking again")
             self._replan_sent_at = now
             self._want_replan = True

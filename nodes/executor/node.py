@@ -22,7 +22,12 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import MessageError
-from msgs_py.ros_codecs import block_set_from_markers, plan_from_string, to_string_msg
+from msgs_py.ros_codecs import (
+    block_set_from_markers,
+    plan_from_string,
+    planner_status_from_string,
+    to_string_msg,
+)
 from nodes.common.params import declare_config
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
@@ -62,6 +67,7 @@ class ExecutorNode(Node):
         self.create_subscription(MarkerArray, "/blocks/detected", self.on_detection, RELIABLE)
         self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
         self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
+        self.create_subscription(String, "/planner/status", self.on_planner_status, LATCHED)
         self.create_service(Trigger, "/executor/start", self.on_start)
         self.create_service(Trigger, "/executor/stop", self.on_stop)
         self.camera = self.create_client(Trigger, "/camera/trigger")
@@ -99,6 +105,16 @@ class ExecutorNode(Node):
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         with self.lock:
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
+
+    def on_planner_status(self, msg: String) -> None:
+        try:
+            status = planner_status_from_string(msg)
+        except MessageError as err:
+            self.get_logger().warning(f"ignoring a malformed /planner/status: {err}")
+            return
+        if status.state == "failed":
+            with self.lock:
+                self.core.on_planner_failed(status.last_error)
 
     def on_joints(self, msg: JointState) -> None:
         """The pads' gap is the sum of the two finger joints (docs/contracts.md)."""

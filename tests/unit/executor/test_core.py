@@ -283,3 +283,38 @@ def test_a_replan_asked_for_by_a_detection_callback_leaves_with_the_next_tick():
     assert core.phase is Phase.REPLANNING
     assert core.tick(500.0).request_replan
     assert not core.tick(500.01).request_replan
+
+
+@pytest.mark.parametrize("twist_deg, accepted", [(1.8, True), (3.0, False)])
+def test_a_residual_the_planner_cannot_correct_is_accepted_only_within_tolerance(
+        twist_deg, accepted):
+    """A block left 1.8 deg off after the last push: correction wanted (> 1.5 deg), the planner
+    finds none, and 1.8 deg is within the 2 deg acceptance: done, residual named. 3 deg is not."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def twist(actions_done):
+        if actions_done == 3:
+            p = world.blocks[2]
+            world.blocks[2] = Pose2D(p.x, p.y, p.theta + math.radians(twist_deg))
+
+    world.disturb = twist
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.REPLANNING)
+    core.on_planner_failed("block 2 can be neither grasped nor pushed")
+    if accepted:
+        assert core.phase is Phase.DONE
+        assert "acceptance tolerance" in core.status().detail
+        assert "block 2 off by 0.0 mm / 1.8 deg" in core.status().detail
+        assert core.metrics["final_yaw_err_max_deg"] == pytest.approx(1.8)
+    else:
+        assert core.phase is Phase.REPLANNING
+        world.run(lambda: world.replan_requests >= 2)  # keeps asking, then gives up in time
+
+
+def test_a_planner_failure_outside_a_replan_changes_nothing():
+    core = ExecutorCore(CFG)
+    World(core, START)
+    core.on_plan(two_action_plan())
+    core.on_planner_failed("an old latched failure")
+    assert core.phase is Phase.IDLE
