@@ -138,10 +138,10 @@ def write_report(report: Path, monitor: RunMonitor, metrics: dict[str, Any]) -> 
         save_plan(plans[0], report / "plan.json")
         draw_plan(plans[0], report / "plan.png")
     (report / "metrics.json").write_text(json.dumps(metrics, indent=2, default=str) + "\n")
-    worst = metrics["final_pos_err_max_m"]
+    worst, done = metrics["final_pos_err_max_m"], metrics["actions_executed"]
     print(f"densepack-run: {metrics['outcome']}; worst block "
           f"{'n/a' if worst is None else f'{worst * 1e3:.2f} mm'}, "
-          f"{metrics['actions_executed']} actions, lost {metrics['blocks_lost']}, "
+          f"{'n/a' if done is None else f'{done:.0f}'} actions, lost {metrics['blocks_lost']}, "
           f"wall {metrics['wall_time_s']:.0f} s; report in {report}", flush=True)
 
 
