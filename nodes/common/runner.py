@@ -16,6 +16,8 @@ the Jazzy idiom. It returns (and the console script exits with) 0 on Ctrl-C / SI
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -57,6 +59,26 @@ def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     return list(remove_ros_args(list(argv)))[1:], list(argv)
 
 
+#: Set by the launchers (densepack-cell, densepack-run, the cell benchmark) on the nodes they
+#: start: the launcher's pid.
+LAUNCHER_PID_ENV = "DENSEPACK_LAUNCHER_PID"
+
+
+def die_with_launcher() -> None:
+    """Stop (SIGTERM, a clean shutdown) when the launcher dies, even by SIGKILL: launched nodes
+    run in their own session, so nothing else would stop them and they would live on as
+    orphans, still talking on the domain."""
+    launcher = os.environ.get(LAUNCHER_PID_ENV)
+    if not launcher or not sys.platform.startswith("linux"):
+        return
+    import ctypes
+
+    pr_set_pdeathsig = 1
+    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
+    if os.getppid() != int(launcher):  # it died before the request took effect
+        raise SystemExit(0)
+
+
 def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     """Run ``spec``'s node until shutdown; returns the process exit code."""
     import rclpy
@@ -73,6 +95,7 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     )
     parser.parse_args(user_args)
 
+    die_with_launcher()
     rclpy.init(args=ros_argv)  # installs SIGINT/SIGTERM handlers that shut the context down
     node = None
     code = 0

@@ -27,7 +27,7 @@ from typing import Any
 import yaml
 
 from nodes.common.paths import config_path
-from nodes.common.runner import split_ros_args
+from nodes.common.runner import LAUNCHER_PID_ENV, split_ros_args
 
 #: Node name -> module that defines ``SPEC`` (a NodeSpec) and ``main``.
 NODE_MODULES = {
@@ -105,7 +105,8 @@ def _pump(prefix: str, stream: Any, lock: threading.Lock) -> None:
 
 
 def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> int:
-    env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
+    env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0",
+               **{LAUNCHER_PID_ENV: str(os.getpid())})
     lock = threading.Lock()
     procs: dict[str, subprocess.Popen] = {}
     pumps: list[threading.Thread] = []

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from msgs_py import save_plan, save_scene
-from nodes.tools.cell_run import CellRun, RunMonitor, run_metrics
+from nodes.tools.cell_run import CellRun, RunMonitor, run_metrics, stop_cells_on_sigterm
 from nodes.tools.cell_run import run as run_cell
 
 FAULTS = ("none", "executor_restart", "planner_restart", "nudge", "camera_drop")
@@ -112,6 +112,7 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
     scene_file = save_scene(scene, workdir / f"scene_{blocks}_{seed}.yaml")
     context = Context()
     rclpy.init(context=context)
+    stop_cells_on_sigterm()
     try:
         with open(workdir / f"cell_{blocks}_{seed}_{fault}.log", "w") as log:
             cell = CellRun(scene_file, log)

@@ -23,6 +23,7 @@ from typing import IO, Any
 
 from msgs_py import BlockSet, Plan, Scene
 from nodes.common.paths import config_path
+from nodes.common.runner import LAUNCHER_PID_ENV
 from nodes.tools.cell import NodeLaunch, load_cell
 
 FINAL_STATES = ("done", "failed")
@@ -128,7 +129,8 @@ class CellRun:
         self.killed: set[str] = set()  # killed on purpose (fault injection), not crashed
         self.pumps: list[threading.Thread] = []
         self.log_lock = threading.Lock()
-        self.env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
+        self.env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0",
+                        **{LAUNCHER_PID_ENV: str(os.getpid())})
 
     def start(self, name: str | None = None) -> None:
         for launch in [self.launches[name]] if name else self.launches.values():
@@ -172,6 +174,14 @@ class CellRun:
                 proc.wait()
         for pump in self.pumps:
             pump.join(timeout=2.0)
+
+
+def stop_cells_on_sigterm() -> None:
+    """SIGTERM unwinds the main thread like Ctrl-C, so every ``finally: cell.stop()`` runs."""
+    def _exit(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, _exit)
 
 
 def run(

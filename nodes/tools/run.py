@@ -21,7 +21,7 @@ from typing import Any
 
 from msgs_py import Plan, load_scene, save_plan
 from nodes.common.paths import config_path
-from nodes.tools.cell_run import CellRun, RunMonitor, run, run_metrics
+from nodes.tools.cell_run import CellRun, RunMonitor, run, run_metrics, stop_cells_on_sigterm
 
 EXIT_CODES = {"done": 0, "failed": 1, "crashed": 1, "timeout": 2}
 
@@ -112,6 +112,7 @@ def main(args: Sequence[str] | None = None) -> int:
           f"({scene_file.name}); node logs in {report / 'cell.log'}", flush=True)
     context = Context()
     rclpy.init(context=context)
+    stop_cells_on_sigterm()
     progress = Progress(opts.quiet)
     with open(report / "cell.log", "w") as log:
         cell = CellRun(scene_file, log)

@@ -120,3 +120,25 @@ def test_command_line_parameters_override_the_cell_file(tmp_path):
     (launch,), _ = load_cell(cell, extra_params={"scene_file": "/x/c.yaml"})
     assert launch.parameters["scene_file"] == "/x/c.yaml"
     assert launch.ros_args()[-2:] == ["-p", "scene_file:=/x/c.yaml"]
+
+
+def test_nodes_do_not_outlive_a_killed_launcher():
+    """SIGKILL leaves the launcher no chance to stop its nodes: they notice and stop."""
+    cell = Cell("--nodes", "goal")
+    cell.wait_for_output("[cell] started goal")
+    node_pid = int(cell.output.split("[cell] started goal (pid ")[1].split(")")[0])
+    cell.wait_for_output("published the goal")
+    cell.proc.kill()
+    cell.proc.wait(timeout=10)
+    deadline = time.monotonic() + 20
+    while _alive(node_pid):
+        assert time.monotonic() < deadline, f"node {node_pid} outlived its launcher"
+        time.sleep(0.1)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split(")")[1].split()[0] != "Z"  # a zombie has exited
+    except FileNotFoundError:
+        return False
