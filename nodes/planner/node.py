@@ -12,6 +12,7 @@ retrieval (a labeled goal naming only some blocks) with rearrangement pebble gra
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 import uuid
@@ -22,6 +23,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError, PlannerStatus, Scene
+from msgs_py.poses import yaw_difference
 from msgs_py.ros_codecs import block_set_from_markers, scene_from_string, to_string_msg
 from nodes.common.params import declare_config
 from nodes.common.qos import LATCHED, RELIABLE
@@ -46,6 +48,25 @@ def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str
         raise MessageError("goal.poses", unseen, f"the goal names blocks that were never "
                            f"detected (seen: {sorted(seen)})")
     return layout.with_blocks(detection.blocks), ""
+
+
+#: A block this far from where it stood in the detection being planned from has moved.
+MOVED_POS_M, MOVED_YAW_RAD = 0.001, math.radians(0.5)
+#: Plans thrown away, at most, because a detection showed blocks moving while planning.
+MAX_STALE_PLANS = 2
+
+
+def moved_blocks(old: BlockSet, new: BlockSet) -> list[int]:
+    """Blocks seen in ``new`` that moved (or appeared) since ``old``: a plan from ``old`` would
+    not start where they stand. Noise (hundredths of a mm) is not movement."""
+    before = {b.id: b.pose for b in old.blocks}
+    moved = []
+    for block in new.blocks:
+        was = before.get(block.id)
+        if was is None or was.distance_to(block.pose) > MOVED_POS_M or yaw_difference(
+                was.theta, block.pose.theta, math.pi / 2) > MOVED_YAW_RAD:
+            moved.append(block.id)
+    return moved
 
 
 class PlannerNode(Node):
@@ -124,8 +145,8 @@ class PlannerNode(Node):
                 self.status(PlannerStatus("waiting", last_error=wait))
                 return False, wait
             self._auto_pending = False
-            self._worker = threading.Thread(target=self._plan, args=(scene,), daemon=True,
-                                            name="planner-worker")
+            self._worker = threading.Thread(target=self._plan, args=(scene, detection),
+                                            daemon=True, name="planner-worker")
             self._worker.start()
         return True, "planning started"
 
@@ -136,14 +157,43 @@ class PlannerNode(Node):
             worker.join(timeout=5.0)
         super().destroy_node()
 
-    def _plan(self, scene: Scene) -> None:
+    def _plan(self, scene: Scene, detection: BlockSet) -> None:
         try:
-            self._plan_and_publish(scene)
+            for _ in range(MAX_STALE_PLANS):
+                fresher = self._plan_and_publish(scene, detection, may_discard=True)
+                if fresher is None:
+                    return
+                scene, detection = fresher
+            self._plan_and_publish(scene, detection, may_discard=False)
         except Exception as err:  # never let the worker die silently (e.g. during shutdown)
             if not self._stop.is_set():
                 self.get_logger().error(f"planner worker failed: {type(err).__name__}: {err}")
 
-    def _plan_and_publish(self, scene: Scene) -> None:
+    def _fresher_start(self, detection: BlockSet) -> tuple[Scene, BlockSet] | None:
+        """A start newer than ``detection`` if blocks moved since it: a replan request can
+        overtake the detection it was made for, and a plan from the older one would be
+        refused by the executor (it does not start where the blocks stand)."""
+        with self._lock:
+            layout, newest = self._layout, self._detection
+        if layout is None or newest is None or newest.stamp_ns <= detection.stamp_ns:
+            return None
+        moved = moved_blocks(detection, newest)
+        if not moved:
+            return None
+        try:
+            scene, _ = scene_to_plan(layout, newest)
+        except (MessageError, ValueError):
+            return None
+        if scene is None:
+            return None
+        self.get_logger().info(f"blocks {moved} moved while planning; planning again from "
+                               "the newer detection")
+        return scene, newest
+
+    def _plan_and_publish(self, scene: Scene, detection: BlockSet, may_discard: bool
+                          ) -> tuple[Scene, BlockSet] | None:
+        """Plan and publish the plan (or the failure); with ``may_discard``, return the
+        fresher start instead when blocks moved while planning."""
         plan_id = uuid.uuid4().hex[:12]
         self.status(PlannerStatus("planning", plan_id=plan_id))
         try:
@@ -152,9 +202,11 @@ class PlannerNode(Node):
         except (MessageError, ValueError) as err:
             self.get_logger().error(f"cannot plan: {err}")
             self.status(PlannerStatus("failed", plan_id=plan_id, last_error=str(err)))
-            return
+            return None
         if self._stop.is_set():
-            return
+            return None
+        if may_discard and (fresher := self._fresher_start(detection)) is not None:
+            return fresher
         if not outcome.ok:
             self.get_logger().error(f"no plan in {outcome.planning_time_s:.2f} s: "
                                     f"{outcome.error}")
@@ -163,7 +215,7 @@ class PlannerNode(Node):
                                       last_error=outcome.error,
                                       failed_block=outcome.failed_block,
                                       metrics=outcome.metrics))
-            return
+            return None
         plan = outcome.plan
         self.plan_pub.publish(to_string_msg(plan))
         self.markers_pub.publish(plan_markers(plan, scene))
@@ -172,6 +224,7 @@ class PlannerNode(Node):
         self.status(PlannerStatus("planned", plan_id=plan_id, n_actions=len(plan.actions),
                                   planning_time_s=outcome.planning_time_s,
                                   metrics=outcome.metrics))
+        return None
 
     def status(self, status: PlannerStatus) -> None:
         self.status_pub.publish(to_string_msg(status))

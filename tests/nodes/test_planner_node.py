@@ -90,3 +90,36 @@ def test_blocks_that_do_not_fit_the_layout_are_a_clear_failure(ros):
     msg = ros.wait_for_message("/planner/status", String, status_is("failed", "workspace"),
                                timeout=20, qos=LATCHED)
     assert "cannot plan" in json.loads(msg.data)["last_error"]
+
+
+def test_blocks_moving_while_it_plans_make_it_plan_again_from_where_they_stand(ros):
+    """A replan request can overtake the detection it was made for; the plan must then start
+    from that newer detection, not from the one planning began with."""
+    scene = random_scene(25, 0.2, seed=1)  # over a second of planning: time to move a block
+    det_pub = start(ros, scene, BlockSet(scene.blocks, stamp_ns=1))
+    ros.wait_for_message("/planner/status", String, status_is("planning"), timeout=30,
+                         qos=LATCHED)
+    moved = _moved_to_free_space(scene)
+    det_pub.publish(block_set_to_markers(BlockSet(moved, stamp_ns=2)))
+    msg = ros.wait_for_message("/plan", String, timeout=120, qos=LATCHED)
+    plan = Plan.from_dict(json.loads(msg.data))
+    assert validate_plan(plan).ok
+    assert plan.scene.blocks[0].pose == moved[0].pose
+
+
+def _moved_to_free_space(scene):
+    """The scene's blocks with the first one moved to the free spot furthest from the rest."""
+    import numpy as np
+
+    from msgs_py import BlockPose
+
+    ws, others = scene.workspace, np.array([[b.x, b.y] for b in scene.blocks[1:]])
+    margin = scene.block_size
+    xs = np.linspace(ws.x_min + margin, ws.x_max - margin, 60)
+    ys = np.linspace(ws.y_min + margin, ws.y_max - margin, 60)
+    grid = np.array([[x, y] for x in xs for y in ys])
+    clearance = np.min(np.linalg.norm(grid[:, None] - others[None], axis=2), axis=1)
+    x, y = grid[np.argmax(clearance)]
+    assert clearance.max() > scene.block_size * 1.5, "no free spot in this scene"
+    first = scene.blocks[0]
+    return (BlockPose(first.id, float(x), float(y), first.theta), *scene.blocks[1:])
