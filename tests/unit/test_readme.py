@@ -34,3 +34,20 @@ def test_the_two_commands_are_at_the_top():
     head = README[:2500]
     assert "<!-- main-command -->" in head and "<!-- test-command -->" in head
     assert "densepack-run" in head
+
+
+@pytest.mark.parametrize("module", NODE_MODULES)
+def test_the_defaults_in_the_readme_tables_are_the_declared_ones(module):
+    import yaml
+
+    spec = importlib.import_module(module).SPEC
+    text = section(spec.name)
+    wrong = []
+    for prefix, cls in spec.configs:
+        for row in describe_config(cls, prefix):
+            short = row["name"].split(".")[-1]
+            shown = re.search(rf"^\| `(?:{re.escape(row['name'])}|{re.escape(short)})` \| \w+ \| "
+                              r"`([^`]*)` \|", text, re.M)
+            if shown and yaml.safe_load(shown.group(1)) != yaml.safe_load(row["default"]):
+                wrong.append(f"{row['name']}: README {shown.group(1)}, declared {row['default']}")
+    assert not wrong, f"README section '{spec.name}' shows stale defaults: {wrong}"
