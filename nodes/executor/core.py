@@ -131,8 +131,10 @@ class ExecutorCore:
         """The planner found no plan for our replan request: what is left may be beyond its
         reach (a block a degree off in the middle of a dense grid can be neither grasped nor
         pushed), and blocks within the acceptance tolerance of their goal then end the run."""
-        if self.phase is Phase.REPLANNING:
-            self._accept_residual(f"the planner found no correction ({reason})")
+        if self.phase is not Phase.REPLANNING:
+            return
+        if not self._accept_residual(f"the planner found no correction ({reason})"):
+            self._replan(f"the planner found no plan: {reason}")
 
     def request_start(self) -> str:
         self._start_requested = True
@@ -334,6 +336,9 @@ class ExecutorCore:
         off = [d for d in errors
                if d.position_error > self.cfg.pos_tolerance or d.yaw_error > self.cfg.yaw_tolerance]
         if off:
+            if not self.plan.actions and self._accept_residual(
+                    "the planner leaves them as they stand (an empty plan)"):
+                return
             self._replan("goal not reached: " + "; ".join(d.describe() for d in off[:3]))
             return
         self._finish(f"every block verified at its goal ({len(errors)} blocks)")

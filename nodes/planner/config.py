@@ -85,6 +85,18 @@ class PlannerConfig:
         0.0262, "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'; "
         "1.5 deg, the executor's yaw_tolerance_deg, so a block the executor finds off its "
         "goal is one the planner moves again", unit="rad")
+    near_goal_tolerance_xy: float = param(
+        0.003, "a block off its goal by more than goal_tolerance_xy but less than this is "
+        "near its goal: if no plan that also corrects it is found within near_goal_budget_s, "
+        "the planner plans again leaving it where it stands (a block a degree off in the "
+        "middle of a dense grid can be neither grasped nor pushed); the executor's "
+        "accept_pos_tolerance", unit="m")
+    near_goal_tolerance_yaw: float = param(
+        0.0349, "... and this in yaw (2 deg, the executor's accept_yaw_tolerance_deg)",
+        unit="rad")
+    near_goal_budget_s: float = param(
+        5.0, "time given to a plan that also corrects near-goal blocks before they are left "
+        "as they stand", unit="s")
 
     def __post_init__(self) -> None:
         for name in ("finger_thickness", "finger_width", "push_opening", "push_max_distance",

@@ -96,20 +96,41 @@ class Search:
 
     # --- top level --------------------------------------------------------------------------
     def run(self) -> tuple[list[Action], dict[int, Pose2D]]:
+        """First with the blocks already on their goal kept there (a replan late in a run:
+        the missing few go in around them), within half the budget; then, non-monotone,
+        with every block movable (the paper's search)."""
+        done = frozenset(b for b in self.goals if self.at_goal(b, self.start))
         targets = frozenset(self.goals)
+        if done and done != targets and self.assembly.feasible(self.assembly.mask(done)):
+            deadline = self.deadline
+            self.deadline = time.monotonic() + 0.5 * (deadline - time.monotonic())
+            try:
+                result = self._search(targets - done, done)
+            except _Timeout:
+                result = None
+            self.deadline = deadline
+            if result is not None:
+                return result
         try:
-            for o in self.ordered(targets, self.start, frozenset()):
-                result = self.pirs(o, targets - {o}, self.start, frozenset(), 0)
-                if result is not None:
-                    return result.actions, result.state
+            result = self._search(targets, frozenset())
         except _Timeout:
             _, block, reason = self.stats.failure
             raise PlanningFailure(
                 block, f"time budget of {self.ctx.config.budget_s:g} s exhausted after placing "
                 f"at most {self.stats.placed_max} of {len(self.goals)} blocks"
                 + (f"; last failure: {reason}" if reason else "")) from None
+        if result is not None:
+            return result
         _, block, reason = self.stats.failure
         raise PlanningFailure(block, reason or "no plan found")
+
+    def _search(self, targets: frozenset[int], placed: frozenset[int]
+                ) -> tuple[list[Action], dict[int, Pose2D]] | None:
+        for o in self.ordered(targets, self.start, placed):
+            result = self.pirs(o, targets - {o}, self.start, placed, 0)
+            if result is not None:
+                return result.actions, result.state
+        return None
 
     def ordered(self, blocks: Iterable[int], state: State, placed: frozenset[int]
                 ) -> Iterator[int]:

@@ -30,6 +30,13 @@ def test_executor_and_planner_agree_on_what_counts_as_placed():
         math.radians(executor["yaw_tolerance_deg"]), abs=1e-4)
 
 
+def test_executor_accepts_what_the_planner_leaves_near_its_goal():
+    planner, executor = params("planner.yaml"), params("executor.yaml")
+    assert planner["near_goal_tolerance_xy"] == pytest.approx(executor["accept_pos_tolerance"])
+    assert planner["near_goal_tolerance_yaw"] == pytest.approx(
+        math.radians(executor["accept_yaw_tolerance_deg"]), abs=1e-4)
+
+
 def test_executor_parks_where_the_sim_keeps_the_camera_clear():
     sim, executor = params("sim.yaml"), params("executor.yaml")
     assert executor["park_pose"][:3] == pytest.approx(sim["park_position"])

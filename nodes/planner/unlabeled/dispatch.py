@@ -13,10 +13,10 @@ from collections.abc import Callable
 
 from msgs_py import MessageError, Scene
 from nodes.planner.config import PlannerConfig
-from nodes.planner.planner import PlanOutcome, plan_scene
+from nodes.planner.planner import PlanOutcome, lower_bound, plan_scene
 from nodes.planner.unlabeled.baseline import plan_assignment
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.planner import plan_unlabeled
+from nodes.planner.unlabeled.planner import plan_unlabeled, unlabeled_lower_bound
 from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
 
 Planner = Callable[..., PlanOutcome]
@@ -44,7 +44,42 @@ def goal_kind(scene: Scene) -> str:
 def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None = None,
               plan_id: str | None = None,
               should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
-    """Plan ``scene`` whatever its goal kind.
+    """Plan ``scene`` whatever its goal kind, near-goal blocks first corrected if that can be
+    done within ``near_goal_budget_s``, else left where they stand (``metrics['near_goal_left']``
+    counts them). Raises as ``plan_kind``."""
+    ucfg = ucfg or UnlabeledConfig()
+    relaxed = dataclasses.replace(config, goal_tolerance_xy=max(config.goal_tolerance_xy,
+                                                    config.near_goal_tolerance_xy),
+                      goal_tolerance_yaw=max(config.goal_tolerance_yaw,
+                                             config.near_goal_tolerance_yaw))
+    near = _blocks_to_place(scene, config) - _blocks_to_place(scene, relaxed)
+    if near <= 0:
+        return plan_kind(scene, config, ucfg, plan_id, should_stop)
+    t0 = time.monotonic()
+    strict = plan_kind(scene, dataclasses.replace(config, budget_s=min(config.budget_s,
+                                                           config.near_goal_budget_s)),
+                       ucfg, plan_id, should_stop)
+    if strict.ok or (should_stop is not None and should_stop()):
+        return strict
+    left = config.budget_s - (time.monotonic() - t0)
+    if left <= 0.0:
+        return strict
+    outcome = plan_kind(scene, dataclasses.replace(relaxed, budget_s=left), ucfg, plan_id,
+                        should_stop)
+    outcome.metrics["near_goal_left"] = float(near)
+    return dataclasses.replace(outcome, planning_time_s=time.monotonic() - t0)
+
+
+def _blocks_to_place(scene: Scene, config: PlannerConfig) -> int:
+    if goal_kind(scene) == "unlabeled":
+        return unlabeled_lower_bound(scene, config)
+    return lower_bound(scene, config)
+
+
+def plan_kind(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None = None,
+              plan_id: str | None = None,
+              should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
+    """Plan ``scene`` with the planner of its goal kind.
 
     When the pebble-graph planner fails an unlabeled goal, the baseline (assignment + pIRS)
     gets what is left of the time budget; a retrieval it cannot do (or one asking for

@@ -318,3 +318,37 @@ def test_a_planner_failure_outside_a_replan_changes_nothing():
     core.on_plan(two_action_plan())
     core.on_planner_failed("an old latched failure")
     assert core.phase is Phase.IDLE
+
+
+def test_an_empty_plan_leaving_a_near_goal_block_ends_the_run_within_acceptance():
+    """The planner leaves a walled-in block 1.8 deg off where it stands (an empty plan)."""
+    core = ExecutorCore(CFG)
+    twisted = GOAL[2].x, GOAL[2].y, math.radians(1.8)
+    blocks = [BlockPose(1, GOAL[1].x, GOAL[1].y, GOAL[1].theta), BlockPose(2, *twisted)]
+    world = World(core, blocks)
+    core.on_plan(Plan((), plan_id="empty", scene=scene(blocks, GOAL),
+                      params={"block_size": 0.0508}))
+    world.run(lambda: core.phase in (Phase.DONE, Phase.FAILED, Phase.REPLANNING))
+    assert core.phase is Phase.DONE
+    assert "an empty plan" in core.status().detail
+
+
+def test_a_planner_that_keeps_failing_makes_the_executor_give_up_with_the_reason():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def twist(actions_done):
+        if actions_done == 3:  # 3 deg: beyond the acceptance tolerance
+            p = world.blocks[2]
+            world.blocks[2] = Pose2D(p.x, p.y, p.theta + math.radians(3.0))
+
+    world.disturb = twist
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.REPLANNING)
+    for _ in range(CFG.max_replans):
+        core.on_planner_failed("block 2 can be neither grasped nor pushed")
+    world.run(lambda: core.phase in (Phase.FAILED, Phase.STOPPED) or core.status().state
+              == "failed")
+    status = core.status()
+    assert status.state == "failed"
+    assert "gave up after" in status.last_error and "neither grasped" in status.last_error
