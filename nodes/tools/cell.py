@@ -165,9 +165,15 @@ def _terminate(procs: dict[str, subprocess.Popen]) -> None:
 def run_in_process(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
 
     os.environ.setdefault("RCUTILS_CONSOLE_OUTPUT_FORMAT", "[{name}] [{severity}] {message}")
-    rclpy.init(args=["densepack-cell"])
+    # Our own handlers and a polled spin: rclpy's handler, on a signal that lands just as the
+    # executor starts waiting, sometimes did not wake it (a hang until SIGKILL).
+    rclpy.init(args=["densepack-cell"], signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
     executor = MultiThreadedExecutor(num_threads=max(4, 2 * len(launches)))
     built = []
     code = 0
@@ -178,16 +184,17 @@ def run_in_process(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> 
             built.append(node)
             executor.add_node(node)
             print(f"[cell] started {launch.name} in-process", flush=True)
-        executor.spin()
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.2)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as err:
         print(f"[cell] a node died: {type(err).__name__}: {err}", flush=True)
         code = 1
     finally:
+        executor.shutdown(timeout_sec=SHUTDOWN_GRACE_S)  # no callback runs on a node destroyed
         for node in built:
             node.destroy_node()
-        executor.shutdown()
         rclpy.try_shutdown()
         print("[cell] all nodes stopped", flush=True)
     return code
