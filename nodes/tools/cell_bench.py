@@ -24,7 +24,13 @@ from pathlib import Path
 from typing import Any
 
 from msgs_py import save_plan, save_scene
-from nodes.tools.cell_run import CellRun, RunMonitor, run_metrics, stop_cells_on_sigterm
+from nodes.tools.cell_run import (
+    CellRun,
+    RunMonitor,
+    private_domain,
+    run_metrics,
+    stop_cells_on_sigterm,
+)
 from nodes.tools.cell_run import run as run_cell
 
 FAULTS = ("none", "executor_restart", "planner_restart", "nudge", "camera_drop")
@@ -110,6 +116,7 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
 
     scene = random_sim_scene(blocks, density, seed)
     scene_file = save_scene(scene, workdir / f"scene_{blocks}_{seed}.yaml")
+    private_domain()
     context = Context()
     rclpy.init(context=context)
     stop_cells_on_sigterm()

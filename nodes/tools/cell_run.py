@@ -176,6 +176,35 @@ class CellRun:
             pump.join(timeout=2.0)
 
 
+#: Topics only a running cell publishes: seen on the domain, another cell is there.
+CELL_TOPICS = ("/sim/ground_truth", "/executor/status", "/plan")
+
+
+def another_cell(node: Any, wait_s: float = 2.0) -> str | None:
+    """The topic through which another cell shows itself on this node's domain, or None.
+    Two cells on one domain hear each other's goals, detections and plans."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        for topic in CELL_TOPICS:
+            if node.count_publishers(topic) > 0:
+                return topic
+        if time.monotonic() >= deadline:
+            return None
+        time.sleep(0.1)
+
+
+def private_domain() -> int:
+    """Put this process and the nodes it starts on a DDS domain of their own (kept on this
+    host), so a benchmark never hears a cell someone runs by hand, nor another benchmark."""
+    from nodes.common.harness import allocate_domain_id
+
+    if "DENSEPACK_PRIVATE_DOMAIN" not in os.environ:
+        os.environ["DENSEPACK_PRIVATE_DOMAIN"] = str(allocate_domain_id(120, 200))
+    os.environ["ROS_DOMAIN_ID"] = os.environ["DENSEPACK_PRIVATE_DOMAIN"]
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    return int(os.environ["ROS_DOMAIN_ID"])
+
+
 def stop_cells_on_sigterm() -> None:
     """SIGTERM unwinds the main thread like Ctrl-C, so every ``finally: cell.stop()`` runs."""
     def _exit(signum: int, frame: Any) -> None:

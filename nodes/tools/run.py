@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,9 +22,17 @@ from typing import Any
 
 from msgs_py import Plan, load_scene, save_plan
 from nodes.common.paths import config_path
-from nodes.tools.cell_run import CellRun, RunMonitor, run, run_metrics, stop_cells_on_sigterm
+from nodes.tools.cell_run import (
+    CellRun,
+    RunMonitor,
+    another_cell,
+    run,
+    run_metrics,
+    stop_cells_on_sigterm,
+)
 
 EXIT_CODES = {"done": 0, "failed": 1, "crashed": 1, "timeout": 2}
+EXIT_ANOTHER_CELL = 3
 
 
 def image_to_png(msg: Any, path: Path) -> bool:
@@ -117,6 +126,16 @@ def main(args: Sequence[str] | None = None) -> int:
     with open(report / "cell.log", "w") as log:
         cell = CellRun(scene_file, log)
         monitor = RunMonitor(context)
+        topic = another_cell(monitor.node)
+        if topic is not None:
+            domain = os.environ.get("ROS_DOMAIN_ID", "0")
+            print(f"densepack-run: another cell is running on ROS_DOMAIN_ID={domain} (it "
+                  f"publishes {topic}); stop it, or run this one with another ROS_DOMAIN_ID",
+                  file=sys.stderr, flush=True)
+            progress.close()
+            monitor.node.destroy_node()
+            rclpy.try_shutdown(context=context)
+            return EXIT_ANOTHER_CELL
         cell.start()
         try:
             result = run(cell, monitor, opts.timeout, progress)
