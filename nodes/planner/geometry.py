@@ -108,6 +108,19 @@ def to_polygons(corners: np.ndarray) -> np.ndarray:
     return shapely.polygons(flat).reshape(corners.shape[:-2])
 
 
+def overlapping_pairs(tree: shapely.STRtree, polygons: np.ndarray, corners: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(shape index, tree index) of the shapes (K, 4, 2) that overlap a tree polygon by more
+    than OVERLAP_AREA_TOL: shapes that only touch (a 0-area intersection) do not collide."""
+    geoms = to_polygons(corners)
+    left, right = tree.query(geoms, predicate="intersects")
+    if len(left):
+        area = shapely.area(shapely.intersection(geoms[left], polygons[right]))
+        real = area > OVERLAP_AREA_TOL
+        left, right = left[real], right[real]
+    return left, right
+
+
 def block_corners(x, y, theta, block_size: float) -> np.ndarray:
     """Block footprints (K, 4, 2)."""
     return rect_corners(x, y, theta, block_size, block_size)
@@ -185,12 +198,7 @@ class Obstacles:
         if len(self.polygons) == 0 or len(flat) == 0:
             empty = np.zeros(0, dtype=np.int64)
             return empty, empty, len(flat)
-        geoms = to_polygons(flat)
-        left, right = self.tree.query(geoms, predicate="intersects")
-        if len(left):
-            area = shapely.area(shapely.intersection(geoms[left], self.polygons[right]))
-            real = area > OVERLAP_AREA_TOL
-            left, right = left[real], right[real]
+        left, right = overlapping_pairs(self.tree, self.polygons, flat)
         return left, right, len(flat)
 
     def query(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

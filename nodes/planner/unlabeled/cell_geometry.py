@@ -39,6 +39,7 @@ from nodes.planner.geometry import (
     block_corners,
     face_normals,
     grasp_finger_corners,
+    overlapping_pairs,
     push_corners,
     to_polygons,
 )
@@ -418,15 +419,10 @@ class _Batch:
         node_hit = np.zeros((len(flat), self.n), dtype=bool)
         fixed_hit = np.zeros(len(flat), dtype=bool)
         if self.tree is not None and len(flat):
-            geoms = to_polygons(flat)
-            left, right = self.tree.query(geoms, predicate="intersects")
-            if len(left):
-                area = shapely.area(shapely.intersection(geoms[left], self.polys[right]))
-                real = area > OVERLAP_AREA_TOL
-                left, right = left[real], right[real]
-                is_node = right < self.n
-                node_hit[left[is_node], right[is_node]] = True
-                fixed_hit[left[~is_node]] = True
+            left, right = overlapping_pairs(self.tree, self.polys, flat)
+            is_node = right < self.n
+            node_hit[left[is_node], right[is_node]] = True
+            fixed_hit[left[~is_node]] = True
         return node_hit.reshape(*lead, self.n), fixed_hit.reshape(lead)
 
     @staticmethod
