@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 import sys
 import threading
+from collections.abc import Callable
+from typing import Any
 
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
@@ -78,41 +80,39 @@ class ExecutorNode(Node):
         self.get_logger().info(f"streaming at {self.config.rate_hz:.0f} Hz; waiting for /plan")
 
     # --- inputs -----------------------------------------------------------------------------------
-    def on_plan(self, msg: String) -> None:
+    def _decoded(self, msg: Any, decode: Callable[[Any], Any], topic: str,
+                 errors: tuple[type[Exception], ...] = (MessageError,)) -> Any:
+        """``decode(msg)``, or None after a warning naming the topic: a malformed message
+        never reaches the core."""
         try:
-            plan = plan_from_string(msg)
-        except MessageError as err:
-            self.get_logger().warning(f"ignoring a malformed /plan: {err}")
-            return
-        with self.lock:
-            self.core.on_plan(plan)
+            return decode(msg)
+        except errors as err:
+            self.get_logger().warning(f"ignoring a malformed {topic}: {err}")
+            return None
+
+    def on_plan(self, msg: String) -> None:
+        plan = self._decoded(msg, plan_from_string, "/plan")
+        if plan is not None:
+            with self.lock:
+                self.core.on_plan(plan)
 
     def on_detection(self, msg: MarkerArray) -> None:
-        try:
-            detection = block_set_from_markers(msg)
-        except MessageError as err:
-            self.get_logger().warning(f"ignoring a malformed /blocks/detected: {err}")
-            return
-        with self.lock:
-            self.core.on_detection(detection)
+        detection = self._decoded(msg, block_set_from_markers, "/blocks/detected")
+        if detection is not None:
+            with self.lock:
+                self.core.on_detection(detection)
 
     def on_tcp(self, msg: PoseStamped) -> None:
-        try:
-            pose = tool_pose_from_msg(msg)
-        except ValueError as err:
-            self.get_logger().warning(f"ignoring a malformed /tcp_pose: {err}")
+        pose = self._decoded(msg, tool_pose_from_msg, "/tcp_pose", (ValueError,))
+        if pose is None:
             return
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         with self.lock:
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
 
     def on_planner_status(self, msg: String) -> None:
-        try:
-            status = planner_status_from_string(msg)
-        except MessageError as err:
-            self.get_logger().warning(f"ignoring a malformed /planner/status: {err}")
-            return
-        if status.state == "failed":
+        status = self._decoded(msg, planner_status_from_string, "/planner/status")
+        if status is not None and status.state == "failed":
             with self.lock:
                 self.core.on_planner_failed(status.last_error)
 
