@@ -47,27 +47,25 @@ def plan_goal(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig | None 
     """Plan ``scene`` whatever its goal kind, near-goal blocks first corrected if that can be
     done within ``near_goal_budget_s``, else left where they stand (``metrics['near_goal_left']``
     counts them). Raises as ``plan_kind``."""
-    ucfg = ucfg or UnlabeledConfig()
-    relaxed = dataclasses.replace(config, goal_tolerance_xy=max(config.goal_tolerance_xy,
-                                                    config.near_goal_tolerance_xy),
-                      goal_tolerance_yaw=max(config.goal_tolerance_yaw,
-                                             config.near_goal_tolerance_yaw))
+    relaxed = dataclasses.replace(
+        config,
+        goal_tolerance_xy=max(config.goal_tolerance_xy, config.near_goal_tolerance_xy),
+        goal_tolerance_yaw=max(config.goal_tolerance_yaw, config.near_goal_tolerance_yaw))
     near = _blocks_to_place(scene, config) - _blocks_to_place(scene, relaxed)
     if near <= 0:
         return plan_kind(scene, config, ucfg, plan_id, should_stop)
     t0 = time.monotonic()
-    strict = plan_kind(scene, dataclasses.replace(config, budget_s=min(config.budget_s,
-                                                           config.near_goal_budget_s)),
-                       ucfg, plan_id, should_stop)
-    if strict.ok or (should_stop is not None and should_stop()):
+    strict = plan_kind(scene, dataclasses.replace(
+        config, budget_s=min(config.budget_s, config.near_goal_budget_s)),
+        ucfg, plan_id, should_stop)
+    if strict.ok:
         return strict
-    left = config.budget_s - (time.monotonic() - t0)
-    if left <= 0.0:
+    leaving = _in_rest_of_budget(strict, t0, config, should_stop, lambda cfg: plan_kind(
+        scene, dataclasses.replace(relaxed, budget_s=cfg.budget_s), ucfg, plan_id,
+        should_stop))
+    if leaving is None:
         return strict
-    outcome = plan_kind(scene, dataclasses.replace(relaxed, budget_s=left), ucfg, plan_id,
-                        should_stop)
-    outcome.metrics["near_goal_left"] = float(near)
-    return dataclasses.replace(outcome, planning_time_s=time.monotonic() - t0)
+    return dataclasses.replace(leaving, metrics={**leaving.metrics, "near_goal_left": float(near)})
 
 
 def _blocks_to_place(scene: Scene, config: PlannerConfig) -> int:
@@ -115,11 +113,21 @@ def _fall_back(outcome: PlanOutcome, t0: float, config: PlannerConfig,
                should_stop: Callable[[], bool] | None,
                other: Callable[[PlannerConfig], PlanOutcome], what: str) -> PlanOutcome:
     """``other`` within what is left of the budget after ``outcome`` failed."""
-    remaining = config.budget_s - (time.monotonic() - t0)
-    if remaining <= 0.0 or (should_stop is not None and should_stop()):
+    fallback = _in_rest_of_budget(outcome, t0, config, should_stop, other)
+    if fallback is None:
         return outcome
-    fallback = other(dataclasses.replace(config, budget_s=remaining))
     metrics = {**fallback.metrics, "fallback": 1.0}
     error = fallback.error and f"{fallback.error} ({what}: {outcome.error})"
-    return dataclasses.replace(fallback, metrics=metrics, error=error,
-                               planning_time_s=time.monotonic() - t0)
+    return dataclasses.replace(fallback, metrics=metrics, error=error)
+
+
+def _in_rest_of_budget(outcome: PlanOutcome, t0: float, config: PlannerConfig,
+                       should_stop: Callable[[], bool] | None,
+                       other: Callable[[PlannerConfig], PlanOutcome]) -> PlanOutcome | None:
+    """``other``'s outcome (timed from ``t0``) within what is left of the budget since
+    ``t0``; None when nothing is left or the caller asked to stop."""
+    remaining = config.budget_s - (time.monotonic() - t0)
+    if remaining <= 0.0 or (should_stop is not None and should_stop()):
+        return None
+    second = other(dataclasses.replace(config, budget_s=remaining))
+    return dataclasses.replace(second, planning_time_s=time.monotonic() - t0)
