@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from msgs_py.cell import BLOCK_SIZE
 from msgs_py.errors import MessageError
 from msgs_py.poses import BlockPose
 
@@ -20,7 +21,7 @@ class BlockSet:
     blocks: tuple[BlockPose, ...]
     stamp_ns: int = 0
     frame_id: str = "world"
-    block_size: float = 0.0508
+    block_size: float = BLOCK_SIZE
     missing: tuple[int, ...] = ()
     reprojection_px: dict[int, float] = field(default_factory=dict)
 

@@ -22,6 +22,7 @@ from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from msgs_py.actions import Plan
+from msgs_py.cell import BLOCK_SIZE
 from msgs_py.checks import finite_float
 from msgs_py.detection import BlockSet
 from msgs_py.documents import dump_json, parse_text
@@ -124,7 +125,7 @@ def block_set_from_markers(msg: MarkerArray, default_stamp_ns: int = 0) -> Block
         blocks=tuple(blocks),
         stamp_ns=default_stamp_ns if stamp_ns is None else stamp_ns,
         frame_id=frame_id or "world",
-        block_size=size if size else 0.0508,
+        block_size=size if size else BLOCK_SIZE,
         missing=tuple(missing),
         reprojection_px=reprojection,
     )

@@ -14,6 +14,9 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
+from msgs_py.cell import BLOCK_SIZE
 from msgs_py.checks import (
     boolean,
     check_keys,
@@ -25,7 +28,7 @@ from msgs_py.checks import (
     require_mapping,
 )
 from msgs_py.errors import MessageError
-from msgs_py.footprint import overlapping_pairs, square_polygon
+from msgs_py.footprint import block_corners, overlapping_blocks
 from msgs_py.poses import BlockPose, Pose2D
 
 SCHEMA_VERSION = 1
@@ -245,7 +248,7 @@ class Scene:
     """Workspace, block size, the blocks' current poses and (optionally) the goal."""
 
     workspace: Workspace
-    block_size: float = 0.0508
+    block_size: float = BLOCK_SIZE
     blocks: tuple[BlockPose, ...] = ()
     goal: Goal | None = None
     version: int = SCHEMA_VERSION
@@ -267,8 +270,7 @@ class Scene:
                 raise MessageError(
                     f"blocks[{k}]", b.to_dict(), f"footprint leaves the workspace {self._ws()}"
                 )
-        polys = [square_polygon(b.x, b.y, b.theta, self.block_size) for b in self.blocks]
-        for i, j in overlapping_pairs(polys):
+        for i, j in overlapping_blocks(_footprints(self.blocks, self.block_size)):
             raise MessageError(
                 f"blocks[{j}]",
                 self.blocks[j].to_dict(),
@@ -283,8 +285,7 @@ class Scene:
                 raise MessageError(
                     f"{where}[{k}]", p.to_dict(), f"goal slot leaves the workspace {self._ws()}"
                 )
-        polys = [square_polygon(p.x, p.y, p.theta, self.block_size) for p in poses]
-        for i, j in overlapping_pairs(polys):
+        for i, j in overlapping_blocks(_footprints(poses, self.block_size)):
             raise MessageError(f"{where}[{j}]", poses[j].to_dict(), f"overlaps goal slot {i}")
         if not self.blocks:
             return  # a bare goal layout: the id checks wait for the blocks
@@ -361,7 +362,7 @@ class Scene:
                 f"{prefix}version", version, f"unsupported; expected {SCHEMA_VERSION}"
             )
         workspace = Workspace.from_dict(data["workspace"], f"{prefix}workspace")
-        block_size = positive_float(f"{prefix}block_size", data.get("block_size", 0.0508))
+        block_size = positive_float(f"{prefix}block_size", data.get("block_size", BLOCK_SIZE))
         raw_blocks = require_list(f"{prefix}blocks", data.get("blocks", []))
         blocks = tuple(
             BlockPose.from_dict(b, f"{prefix}blocks[{k}]") for k, b in enumerate(raw_blocks)
@@ -374,6 +375,12 @@ class Scene:
         elif "labeled" in data or "yaw_exact" in data:
             raise MessageError(f"{prefix}labeled", labeled, "given without a goal")
         return cls(workspace, block_size, blocks, goal, version)
+
+
+def _footprints(poses: Sequence[Pose2D | BlockPose], block_size: float):
+    """Footprint corners (K, 4, 2) of blocks or slots."""
+    xyt = np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)
+    return block_corners(xyt[:, 0], xyt[:, 1], xyt[:, 2], block_size)
 
 
 def _reject_duplicates(field: str, key: str, values: list[int]) -> None:

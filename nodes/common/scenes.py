@@ -12,9 +12,9 @@ import math
 import numpy as np
 
 from msgs_py import BlockPose, Goal, GridSpec, Scene, Workspace
-from msgs_py.footprint import square_polygon
+from msgs_py.cell import BLOCK_SIZE
+from msgs_py.footprint import block_polygon
 
-BLOCK_SIZE = 0.0508
 DEFAULT_CENTER = (0.70, 0.0)
 MAX_ATTEMPTS_PER_BLOCK = 20_000
 
@@ -72,11 +72,11 @@ def scatter_blocks(
             candidate = BlockPose(first_id + k, x, y, theta)
             if not workspace.contains_square(candidate, block_size):
                 continue
-            poly = square_polygon(x, y, theta, block_size + 2 * min_gap)
+            poly = block_polygon(x, y, theta, block_size + 2 * min_gap)
             if any(poly.intersects(other) for other in inflated):
                 continue
             placed.append(candidate)
-            inflated.append(square_polygon(x, y, theta, block_size + 2 * min_gap))
+            inflated.append(block_polygon(x, y, theta, block_size + 2 * min_gap))
             break
         else:
             raise RuntimeError(

@@ -22,6 +22,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
 
 from msgs_py import MessageError, load_scene
+from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
 from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
 from msgs_py.ros_codecs import stamp_to_ns
 from nodes.common.params import declare_config, describe_config, param
@@ -47,9 +48,9 @@ class CalibrateConfig:
     max_rms_px: float = param(0.5, "refuse to write a result whose RMS residual is above this",
                               unit="px")
     refinement: str = param("edges", "corner refinement (as the detector's)")
-    block_size: float = param(0.0508, "cube side; tags lie in the plane z = block_size",
+    block_size: float = param(BLOCK_SIZE, "cube side; tags lie in the plane z = block_size",
                               unit="m")
-    tag_size: float = param(0.040, "side of the tag's black square", unit="m")
+    tag_size: float = param(TAG_SIZE, "side of the tag's black square", unit="m")
     trigger: bool = param(False, "ask for each frame on /camera/trigger (std_srvs/Trigger) "
                           "instead of waiting for the camera's own rate")
 

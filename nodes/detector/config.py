@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from msgs_py import MessageError
 from msgs_py.camera import CameraPose
+from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
 from nodes.common.params import param
 from nodes.detector.estimate import ESTIMATORS
 from nodes.detector.id_sets import parse_id_set
@@ -44,9 +45,9 @@ class DetectorConfig:
         "reliable", "QoS reliability of the image/camera_info subscriptions: reliable (the "
         "sim's frames; best effort lost one 3.7 MB frame in three under load) or best_effort "
         "(to hear a camera driver that publishes sensor-data QoS)")
-    block_size: float = param(0.0508, "cube side; tags lie in the plane z = block_size",
+    block_size: float = param(BLOCK_SIZE, "cube side; tags lie in the plane z = block_size",
                               unit="m")
-    tag_size: float = param(0.040, "side of the tag's black square", unit="m")
+    tag_size: float = param(TAG_SIZE, "side of the tag's black square", unit="m")
     calibration_file: str = param(
         "camera_calibration.yaml", "calibration YAML read when camera_pose.* is not set "
         "(relative paths are under config/)")

@@ -12,9 +12,8 @@ import math
 import numpy as np
 
 from msgs_py import BlockPose
+from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
 
-BLOCK_SIZE = 0.0508  # m, cube side
-TAG_SIZE = 0.040  # m, side of the black square (8 cells of 5 mm)
 TAG_FAMILY = "36h11"
 
 #: Block-local (x, y) of the tag corners in OpenCV order, m.

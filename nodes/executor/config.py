@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from msgs_py import cell
 from nodes.common.params import param
 from nodes.executor.motion import Limits, ToolPose
 
@@ -48,14 +49,18 @@ class ExecutorConfig:
         [0.25, -0.55, 0.40, 0.0], "TCP pose out of the camera's view: x, y, z, yaw",
         unit="m, rad")
     pos_tolerance: float = param(
-        0.002, "a block further than this from its expected pose needs a correction",
+        cell.PLACED_TOLERANCE_XY,
+        "a block further than this from its expected pose needs a correction",
         unit="m")
-    yaw_tolerance_deg: float = param(1.5, "yaw tolerance (modulo 90 degrees)", unit="deg")
+    yaw_tolerance_deg: float = param(
+        cell.PLACED_TOLERANCE_YAW_DEG, "yaw tolerance (modulo 90 degrees)", unit="deg")
     accept_pos_tolerance: float = param(
-        0.003, "when the planner finds no correction, blocks this close to their goal end the "
+        cell.ACCEPT_TOLERANCE_XY,
+        "when the planner finds no correction, blocks this close to their goal end the "
         "run as done (the residual is reported)", unit="m")
     accept_yaw_tolerance_deg: float = param(
-        2.0, "... and this close in yaw (modulo 90 degrees)", unit="deg")
+        cell.ACCEPT_TOLERANCE_YAW_DEG,
+        "... and this close in yaw (modulo 90 degrees)", unit="deg")
     observe_every_action: bool = param(
         True, "park and take a fresh detection after every action (closed loop)")
     detection_timeout_s: float = param(

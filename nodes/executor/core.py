@@ -23,13 +23,13 @@ import math
 from dataclasses import dataclass, field
 
 from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
+from msgs_py.cell import GripperGeometry, table_margin_of
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import action_steps, expected_after, park_steps
 from nodes.executor.recovery import free_spot, holds_block
 from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
 from nodes.executor.verify import Deviation, deviations, goal_errors
-from nodes.planner.geometry import GripperGeometry
 
 
 class Phase(enum.Enum):
@@ -59,7 +59,7 @@ class ExecutorCore:
         self.cfg = cfg
         self.phase = Phase.IDLE
         self.plan: Plan | None = None
-        self.geo = GripperGeometry.from_params({})
+        self.geo = GripperGeometry()
         self.index = 0  # next action to run (0-based)
         self.tcp: ToolPose | None = None
         self.perceived: dict[int, Pose2D] = {}
@@ -459,7 +459,7 @@ class ExecutorCore:
         workspace = plan.scene.workspace
         spot = free_spot(self.perceived, workspace, self.geo, tool.yaw,
                          (known[block].x, known[block].y),
-                         float(plan.params.get("table_margin", 0.05)))
+                         table_margin_of(plan.params))
         if spot is None:
             self._fail(f"holding block {block} and no free spot to set it down")
             return

@@ -20,10 +20,10 @@ from __future__ import annotations
 import math
 
 from msgs_py import PickPlace, Pose2D, Push
+from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
 from nodes.executor.steps import Grip, Move, Rise, Step
-from nodes.planner.geometry import GripperGeometry
 
 
 def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:

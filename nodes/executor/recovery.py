@@ -14,23 +14,20 @@ import numpy as np
 import shapely
 
 from msgs_py import Pose2D, Workspace
-from nodes.planner.geometry import (
-    GripperGeometry,
-    block_corners,
-    grasp_finger_corners,
-    to_polygons,
-)
+from msgs_py.cell import BLOCK_SIZE, TABLE_MARGIN, GripperGeometry
+from msgs_py.footprint import block_corners, grasp_finger_corners, to_polygons
 
-#: Finger gap (m) that means "holding a block": the pads stopped on a 50.8 mm cube
-#: (open for a grasp is 50.8 + 2 x clearance, closed on nothing is 0, a push 20 mm).
+#: Finger gap (m) that means "holding a block": the pads stopped on a cube of the contract's
+#: BLOCK_SIZE (open for a grasp is the block + 2 x clearance, closed on nothing is 0, a push
+#: 20 mm). Other block sizes scale it.
 HOLDING_GAP = (0.040, 0.058)
 
 
-def holds_block(finger_gap: float | None, block_size: float = 0.0508) -> bool:
+def holds_block(finger_gap: float | None, block_size: float = BLOCK_SIZE) -> bool:
     if finger_gap is None:
         return False
-    lo, hi = HOLDING_GAP
-    return lo * block_size / 0.0508 <= finger_gap <= hi * block_size / 0.0508
+    lo, hi = (g * block_size / BLOCK_SIZE for g in HOLDING_GAP)
+    return lo <= finger_gap <= hi
 
 
 def free_spot(
@@ -39,7 +36,7 @@ def free_spot(
     geo: GripperGeometry,
     tool_yaw: float,
     near: tuple[float, float],
-    table_margin: float = 0.05,
+    table_margin: float = TABLE_MARGIN,
     margin: float = 0.008,
     step: float = 0.01,
 ) -> Pose2D | None:

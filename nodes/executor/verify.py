@@ -11,9 +11,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from msgs_py import Pose2D, Scene
+from msgs_py.cell import CUBE_SYMMETRY
 from msgs_py.poses import yaw_difference
-
-CUBE_SYMMETRY = math.pi / 2
 
 
 @dataclass(frozen=True, slots=True)

@@ -21,14 +21,9 @@ from functools import cache
 import numpy as np
 
 from msgs_py import Pose2D
+from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
 from nodes.planner.context import PlanContext
-from nodes.planner.geometry import (
-    Obstacles,
-    block_corners,
-    face_normals,
-    grasp_finger_corners,
-    push_corners,
-)
+from nodes.planner.geometry import Obstacles
 
 #: Push lengths (in block sizes) tried when testing whether a slot can be pushed into (those
 #: up to the roadmap's push_max_distance).

@@ -10,36 +10,42 @@ in its description; the figures follow a Robotiq 2F-85-class gripper as the sim 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import Any
 
+from msgs_py import cell
+from msgs_py.cell import GRIPPER_STROKE, GripperGeometry
 from nodes.common.params import param
-
-#: Stroke of a 2F-85-class gripper (m): the widest opening the fingers reach.
-GRIPPER_STROKE = 0.085
 
 
 @dataclass(frozen=True)
 class PlannerConfig:
     # --- gripper geometry (docs/contracts.md "Plans and how the executor reads them") -------
     finger_thickness: float = param(
-        0.014, "finger size along the closing axis (2F-85 phalanx + pad; docs/contracts.md)",
+        cell.FINGER_THICKNESS,
+        "finger size along the closing axis (2F-85 phalanx + pad; docs/contracts.md)",
         unit="m")
     finger_width: float = param(
-        0.022, "finger pad size across the closing axis (2F-85 pad is ~22 mm wide)", unit="m")
+        cell.FINGER_WIDTH,
+        "finger pad size across the closing axis (2F-85 pad is ~22 mm wide)", unit="m")
     approach_clearance: float = param(
-        0.009, "gap between each finger and the block face as the open gripper descends: "
+        cell.APPROACH_CLEARANCE,
+        "gap between each finger and the block face as the open gripper descends: "
         "covers perception error (a few mm) and finger flex; opening = s + 2*clearance",
         unit="m")
     push_opening: float = param(
-        0.020, "finger gap during a push: both tips on the rear face (needs "
+        cell.PUSH_OPENING,
+        "finger gap during a push: both tips on the rear face (needs "
         "push_opening/2 + finger_thickness <= s/2) and far enough apart to stop the block "
         "from turning", unit="m")
     push_contact_depth: float = param(
-        0.010, "gap between fingertips and the rear face when the fingers descend behind a "
+        cell.PUSH_CONTACT_DEPTH,
+        "gap between fingertips and the rear face when the fingers descend behind a "
         "block before a push, so they never land on it", unit="m")
     table_margin: float = param(
-        0.05, "how far the table extends past the block workspace on every side: fingers "
+        cell.TABLE_MARGIN,
+        "how far the table extends past the block workspace on every side: fingers "
         "may stand there, blocks may not", unit="m")
     # --- cost (DESIGN §6) ---------------------------------------------------------------------
     a1: float = param(1.0, "cost of one pick-and-place action")
@@ -80,19 +86,23 @@ class PlannerConfig:
     shortcut: bool = param(
         True, "option: merge two moves of the same block into one where the plan allows it")
     goal_tolerance_xy: float = param(
-        0.002, "a block this close to its goal counts as placed (no action)", unit="m")
+        cell.PLACED_TOLERANCE_XY,
+        "a block this close to its goal counts as placed (no action)", unit="m")
     goal_tolerance_yaw: float = param(
-        0.0262, "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'; "
+        round(math.radians(cell.PLACED_TOLERANCE_YAW_DEG), 4),
+        "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'; "
         "1.5 deg, the executor's yaw_tolerance_deg, so a block the executor finds off its "
         "goal is one the planner moves again", unit="rad")
     near_goal_tolerance_xy: float = param(
-        0.003, "a block off its goal by more than goal_tolerance_xy but less than this is "
+        cell.ACCEPT_TOLERANCE_XY,
+        "a block off its goal by more than goal_tolerance_xy but less than this is "
         "near its goal: if no plan that also corrects it is found within near_goal_budget_s, "
         "the planner plans again leaving it where it stands (a block a degree off in the "
         "middle of a dense grid can be neither grasped nor pushed); the executor's "
         "accept_pos_tolerance", unit="m")
     near_goal_tolerance_yaw: float = param(
-        0.0349, "... and this in yaw (2 deg, the executor's accept_yaw_tolerance_deg)",
+        round(math.radians(cell.ACCEPT_TOLERANCE_YAW_DEG), 4),
+        "... and this in yaw (2 deg, the executor's accept_yaw_tolerance_deg)",
         unit="rad")
     near_goal_budget_s: float = param(
         5.0, "time given to a plan that also corrects near-goal blocks before they are left "
@@ -127,6 +137,12 @@ class PlannerConfig:
         if self.push_opening / 2.0 + self.finger_thickness > block_size / 2.0:
             raise ValueError("push_opening/2 + finger_thickness exceeds block_size/2: the "
                              "fingertips would miss the block's rear face")
+
+    def gripper(self, block_size: float) -> GripperGeometry:
+        """The footprint geometry of this configuration for blocks of ``block_size``."""
+        return GripperGeometry(block_size, self.finger_thickness, self.finger_width,
+                               self.approach_clearance, self.push_opening,
+                               self.push_contact_depth)
 
     def to_params(self, block_size: float) -> dict[str, Any]:
         """Everything a plan's ``params`` must carry to be replayed on its own."""

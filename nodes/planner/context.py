@@ -13,8 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from msgs_py import Pose2D, Scene
+from msgs_py.cell import GripperGeometry
+from msgs_py.footprint import block_corners
 from nodes.planner.config import PlannerConfig
-from nodes.planner.geometry import MAX_BLOCKS, Bounds, GripperGeometry, Obstacles, block_corners
+from nodes.planner.geometry import MAX_BLOCKS, Bounds, Obstacles
 
 State = Mapping[int, Pose2D]
 
@@ -36,7 +38,7 @@ class PlanContext:
             raise ValueError(f"{len(ids)} blocks: the planner handles at most {MAX_BLOCKS}")
         w = scene.workspace
         workspace = Bounds(w.x_min, w.x_max, w.y_min, w.y_max)
-        return cls(config, GripperGeometry.from_config(config, scene.block_size), workspace,
+        return cls(config, config.gripper(scene.block_size), workspace,
                    workspace.grown(config.table_margin), ids)
 
     @property

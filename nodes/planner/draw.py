@@ -18,7 +18,7 @@ from matplotlib.patches import Polygon as PatchPolygon
 from matplotlib.patches import Rectangle
 
 from msgs_py import Plan, Push, Scene
-from msgs_py.footprint import square_corners
+from msgs_py.footprint import block_corners
 from nodes.planner.unlabeled.goal_check import goal_slots
 
 PICK_COLOR = "tab:blue"
@@ -34,12 +34,12 @@ def draw_plan(scene: Scene, plan: Plan | None, path: str | Path, title: str = ""
     labeled = scene.goal is not None and scene.goal.labeled
     slots = goal_slots(scene)
     for key, goal in slots:
-        ax.add_patch(PatchPolygon(square_corners(goal.x, goal.y, goal.theta, s), closed=True,
+        ax.add_patch(PatchPolygon(block_corners(goal.x, goal.y, goal.theta, s), closed=True,
                                   fill=False, ls="--", ec="tab:green", lw=1.2))
         ax.text(goal.x, goal.y, str(key) if labeled else "any", color="tab:green",
                 ha="center", va="center", fontsize=7, alpha=0.8)
     for b in scene.blocks:
-        ax.add_patch(PatchPolygon(square_corners(b.x, b.y, b.theta, s), closed=True,
+        ax.add_patch(PatchPolygon(block_corners(b.x, b.y, b.theta, s), closed=True,
                                   fc="burlywood", ec="saddlebrown", alpha=0.7))
         ax.text(b.x, b.y, str(b.id), ha="center", va="center", fontsize=8, weight="bold")
     goals = dict(slots) if labeled else {}
@@ -49,7 +49,7 @@ def draw_plan(scene: Scene, plan: Plan | None, path: str | Path, title: str = ""
         ends = [goals[action.block]] if action.block in goals else [] if labeled else \
             [g for _, g in slots]
         if not any(action.to.distance_to(g) <= 1e-6 for g in ends):  # an intermediate pose
-            ax.add_patch(PatchPolygon(square_corners(action.to.x, action.to.y, action.to.theta,
+            ax.add_patch(PatchPolygon(block_corners(action.to.x, action.to.y, action.to.theta,
                                                      s), closed=True, fill=False, ls=":",
                                       ec="grey", lw=0.8))
         ax.annotate("", xy=(action.to.x, action.to.y), xytext=(action.from_.x, action.from_.y),

@@ -21,15 +21,9 @@ import numpy as np
 
 from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.actions import Action
+from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
 from nodes.planner.context import PlanContext, State
-from nodes.planner.geometry import (
-    Obstacles,
-    block_corners,
-    face_normals,
-    grasp_finger_corners,
-    popcount,
-    push_corners,
-)
+from nodes.planner.geometry import Obstacles, popcount
 
 #: Tolerances (m) for "on a push line": off-line distance, and the shortest push.
 LINE_TOL = 1e-7

@@ -30,9 +30,10 @@ import numpy as np
 
 from msgs_py import Pose2D
 from msgs_py.actions import Action
+from msgs_py.footprint import block_corners, grasp_finger_corners
 from nodes.planner.assembly import Assembly
 from nodes.planner.context import PlanContext, State, at_pose, nearest_goal_yaw
-from nodes.planner.geometry import Obstacles, block_corners, grasp_finger_corners
+from nodes.planner.geometry import Obstacles
 from nodes.planner.roadmap import NoRoute, Route, plan_route, uniform_draw
 
 #: Candidate clearing poses drawn per batch, and batches per relaxation level.

@@ -16,14 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from msgs_py import Pose2D
+from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
 from nodes.planner.context import PlanContext, State
-from nodes.planner.geometry import (
-    block_corners,
-    face_normals,
-    grasp_finger_corners,
-    mask_to_ids,
-    push_corners,
-)
+from nodes.planner.geometry import mask_to_ids
 from nodes.planner.roadmap import LINE_TOL, MIN_PUSH
 
 

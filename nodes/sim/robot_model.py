@@ -9,6 +9,16 @@ from __future__ import annotations
 
 import math
 
+# Stroke, finger footprint, block and tag size: the cell contract (msgs_py.cell), shared with
+# the planner, the executor and the detector.
+from msgs_py.cell import (  # noqa: F401 (re-exported for the sim and the asset generator)
+    BLOCK_SIZE,
+    FINGER_THICKNESS,
+    FINGER_WIDTH,
+    GRIPPER_STROKE,
+    TAG_SIZE,
+)
+
 # --- UR10e (Universal Robots, "DH parameters for calculations of kinematics and dynamics") ----
 #: Standard DH parameters of the UR10e, joints 1..6 (m, rad).
 DH_D = (0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655)
@@ -44,7 +54,6 @@ JOINT_TORQUE_LIMIT = (330.0, 330.0, 150.0, 56.0, 56.0, 56.0)
 JOINT_ACCELERATION_LIMIT = (4.0, 4.0, 6.0, 8.0, 8.0, 8.0)
 
 # --- Robotiq 2F-85 (data sheet / instruction manual, section "Specifications") ---------------
-GRIPPER_STROKE = 0.085  #: m, max gap between the pads
 GRIP_FORCE_RANGE = (20.0, 235.0)  #: N, data sheet
 GRIP_FORCE_DEFAULT = 40.0  #: N, a gentle wood-block grip (well inside the range)
 CLOSING_SPEED_RANGE = (0.020, 0.150)  #: m/s, data sheet
@@ -52,19 +61,14 @@ CLOSING_SPEED_DEFAULT = 0.100  #: m/s of the gap
 GRIPPER_MASS = 0.925  #: kg, data sheet (with fingers)
 #: Flange to fingertips (coupling 11 mm + 163 mm gripper with fingers closed), m.
 TCP_OFFSET = 0.174
-#: Finger footprint in the table plane: along the closing axis (phalanx + pad) and across it.
-FINGER_THICKNESS = 0.014
-FINGER_WIDTH = 0.022  #: the 2F-85 fingertip pad is 22 mm wide
 FINGER_LENGTH = 0.055  #: m, visible finger below the gripper body
 PAD_HEIGHT = 0.038  #: m, rubber pad height (fingertip up), data sheet drawing
 FINGER_MASS = 0.05  #: kg each (the rest of the 0.925 kg is in the body)
 FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
 
 # --- Blocks, table, friction -----------------------------------------------------------------
-BLOCK_SIZE = 0.0508  #: 2 inch cubes
 SOFTWOOD_DENSITY = 500.0  #: kg/m^3, pine/spruce (dry) 400-550
 BLOCK_MASS = SOFTWOOD_DENSITY * BLOCK_SIZE**3
-TAG_SIZE = 0.040  #: black square of the tag (8 cells of 5 mm)
 TAG_MARGIN = 0.0054  #: white margin around it, (s - tag) / 2
 
 #: Pairwise Coulomb friction coefficients (dimensionless) the sim aims for.

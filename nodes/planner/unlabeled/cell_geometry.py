@@ -33,9 +33,8 @@ from shapely.geometry import Polygon
 
 from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.actions import Action
-from nodes.planner.context import PlanContext
-from nodes.planner.geometry import (
-    OVERLAP_AREA_TOL,
+from msgs_py.cell import OVERLAP_AREA_TOL
+from msgs_py.footprint import (
     block_corners,
     face_normals,
     grasp_finger_corners,
@@ -43,6 +42,7 @@ from nodes.planner.geometry import (
     push_corners,
     to_polygons,
 )
+from nodes.planner.context import PlanContext
 from nodes.planner.unlabeled.rpg import Site, Transfer
 
 QUARTER = 0.5 * math.pi

@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msgs_py import PickPlace, Pose2D, Push
+from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import Limits, LinearMove, ToolPose, minimum_jerk_duration
 from nodes.executor.primitives import (
@@ -19,7 +20,6 @@ from nodes.executor.primitives import (
     push_steps,
 )
 from nodes.executor.steps import Grip, Move, StepRunner
-from nodes.planner.geometry import GripperGeometry
 
 CFG = ExecutorConfig()
 GEO = GripperGeometry.from_params({})

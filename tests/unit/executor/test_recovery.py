@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from msgs_py import Pose2D, Workspace
+from msgs_py.cell import GripperGeometry
 from nodes.executor.recovery import free_spot, holds_block
-from nodes.planner.geometry import GripperGeometry
 
 GEO = GripperGeometry.from_params({})
 WS = Workspace(0.45, 0.95, -0.35, 0.35)

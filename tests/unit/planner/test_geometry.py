@@ -8,22 +8,18 @@ import numpy as np
 import pytest
 import shapely
 
-from nodes.planner.config import PlannerConfig
-from nodes.planner.geometry import (
-    Bounds,
-    GripperGeometry,
-    Obstacles,
+from msgs_py.footprint import (
     block_corners,
     face_normals,
     grasp_finger_corners,
-    mask_to_ids,
-    popcount,
     push_corners,
     to_polygons,
 )
+from nodes.planner.config import PlannerConfig
+from nodes.planner.geometry import Bounds, Obstacles, mask_to_ids, popcount
 
 S = 0.0508
-GEOM = GripperGeometry.from_config(PlannerConfig(), S)
+GEOM = PlannerConfig().gripper(S)
 
 
 def poly(corners):
