@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from msgs_py.checks import check_keys, finite_float, integer, require_mapping
 
@@ -81,3 +84,8 @@ class BlockPose:
             finite_float(f"{field}.y", data["y"]),
             finite_float(f"{field}.theta", data.get("theta", 0.0)),
         )
+
+
+def poses_to_array(poses: Iterable[Pose2D | BlockPose]) -> np.ndarray:
+    """(K, 3) array of x, y, theta: poses as the vectorised geometry takes them."""
+    return np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)

@@ -14,8 +14,6 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from msgs_py.cell import BLOCK_SIZE
 from msgs_py.checks import (
     boolean,
@@ -29,7 +27,7 @@ from msgs_py.checks import (
 )
 from msgs_py.errors import MessageError
 from msgs_py.footprint import block_corners, overlapping_blocks
-from msgs_py.poses import BlockPose, Pose2D
+from msgs_py.poses import BlockPose, Pose2D, poses_to_array
 
 SCHEMA_VERSION = 1
 
@@ -379,7 +377,7 @@ class Scene:
 
 def _footprints(poses: Sequence[Pose2D | BlockPose], block_size: float):
     """Footprint corners (K, 4, 2) of blocks or slots."""
-    xyt = np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)
+    xyt = poses_to_array(poses)
     return block_corners(xyt[:, 0], xyt[:, 1], xyt[:, 2], block_size)
 
 

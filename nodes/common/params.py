@@ -12,15 +12,24 @@ A config dataclass lists each parameter once, with its default, unit and descrip
 description), reads the values back, coerces them to the field's type and builds the
 dataclass, whose ``__post_init__`` runs the cross-field checks. ``describe_config`` renders
 the same information for ``--help`` and the README.
+
+Outside a node (the offline CLIs, benchmarks, tests) ``read_params_file`` reads the same
+``--params-file`` YAML and ``configs_from_parameters`` builds the same dataclasses from it,
+refusing names that no config declares, so a typo in a parameter file is an error there too.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, dataclass, fields
+from pathlib import Path
 from typing import Any, TypeVar
 
 C = TypeVar("C")
+
+#: Parameters every ROS node has: a parameter file may give them to any node.
+ROS_NODE_PARAMETERS = ("use_sim_time",)
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,3 +150,77 @@ def config_overrides(config: Any, prefix: str = "") -> dict[str, Any]:
         parameter_name(f, meta, prefix): _to_ros(getattr(config, f.name))
         for f, meta in _param_fields(type(config))
     }
+
+
+def read_params_file(path: str | Path, node_name: str | None = None) -> dict[str, Any]:
+    """The parameters a ROS ``--params-file`` YAML gives a node, nested keys joined by dots.
+
+    ``camera: {fx: ...}`` and ``camera.fx: ...`` mean the same to ROS; both come back as
+    ``{"camera.fx": ...}``. The ``/**`` section applies to every node, a section named after
+    the node (``sim`` or ``/sim``) to that node only; ``node_name=None`` merges every section.
+
+    Raises:
+        OSError: the file cannot be read.
+        ValueError: the file is not a parameter file (names the file and what is wrong).
+    """
+    import yaml
+
+    data = yaml.safe_load(Path(path).read_text())
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: not a ROS parameter file (expected '/**: ros__parameters:')")
+    values: dict[str, Any] = {}
+    for section, body in data.items():
+        if node_name is not None and str(section).lstrip("/") not in ("**", node_name):
+            continue
+        params = body.get("ros__parameters") if isinstance(body, dict) else None
+        if not isinstance(params, dict):
+            raise ValueError(f"{path}: section '{section}' has no 'ros__parameters' mapping")
+        values.update(_flatten(params))
+    return values
+
+
+def _flatten(tree: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_flatten(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
+def configs_from_parameters(
+    configs: Sequence[tuple[str, type]], values: Mapping[str, Any], source: str = "parameters"
+) -> list[Any]:
+    """One config per ``(prefix, cls)`` from parameter ``values`` (names as in a params file),
+    coerced like ``declare_config``; a field not in ``values`` keeps its default.
+
+    Raises:
+        ValueError: a name no config declares (a typo, a parameter of another node), a value
+            of the wrong type, or one the config's own checks refuse; ``source`` and the
+            parameter are named.
+    """
+    claimed: set[str] = set(ROS_NODE_PARAMETERS)
+    built = []
+    for prefix, cls in configs:
+        kwargs: dict[str, Any] = {}
+        for f, meta in _param_fields(cls):
+            name = parameter_name(f, meta, prefix)
+            claimed.add(name)
+            if name in values:
+                default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+                kwargs[f.name] = _coerce(name, values[name], default)
+        built.append(kwargs)
+    unknown = sorted(set(values) - claimed)
+    if unknown:
+        raise ValueError(f"{source}: unknown parameter(s) {unknown}")
+    out = []
+    for (_, cls), kwargs in zip(configs, built, strict=True):
+        try:
+            out.append(cls(**kwargs))
+        except ValueError as err:
+            raise ValueError(f"{source}: {err}") from None
+    return out

@@ -20,7 +20,7 @@ import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from nodes.common.params import describe_config
@@ -36,7 +36,6 @@ class NodeSpec:
     configs: tuple[tuple[str, type], ...] = ()
     topics: str = ""
     threads: int = 4
-    extra: dict[str, Any] = field(default_factory=dict)
 
     def help_text(self) -> str:
         lines = [self.description.strip(), ""]

@@ -60,10 +60,6 @@ def pose_matrix(position, q_xyzw) -> np.ndarray:
     return t
 
 
-def matrix_to_pose(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return np.asarray(t[:3, 3], dtype=float).copy(), matrix_to_quaternion(t[:3, :3])
-
-
 def tool_down_matrix(yaw: float) -> np.ndarray:
     """Rotation of a tool pointing straight down with its closing axis (x) at ``yaw``."""
     c, s = math.cos(yaw), math.sin(yaw)

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import yaml
 
 from msgs_py import MessageError
 from msgs_py.camera import CameraIntrinsics, CameraPose
+from nodes.common.params import read_params_file
 from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
 
 
@@ -97,29 +97,8 @@ class CameraModel:
 
 
 # --- the calibration file ------------------------------------------------------------------
-def read_ros_parameters(path: str | Path) -> dict:
-    """The parameters of a ``--params-file`` YAML, nested keys joined with dots.
-
-    ``camera_pose: {position: ...}`` and ``camera_pose.position: ...`` mean the same to ROS;
-    both come back as ``{"camera_pose.position": ...}``. Every node section is merged.
-    """
-    data = yaml.safe_load(Path(path).read_text()) or {}
-    params: dict = {}
-    for section in data.values() if isinstance(data, dict) else ():
-        if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
-            params.update(_flatten(section["ros__parameters"]))
-    return params
-
-
-def _flatten(tree: dict, prefix: str = "") -> dict:
-    out: dict = {}
-    for key, value in tree.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, dict):
-            out.update(_flatten(value, name + "."))
-        else:
-            out[name] = value
-    return out
+#: What a calibration file holds: the camera pose, as the detector's parameters name it.
+CALIBRATION_PARAMETERS = ("camera_pose.position", "camera_pose.orientation_xyzw")
 
 
 def load_camera_pose(path: str | Path) -> CameraPose:
@@ -129,7 +108,13 @@ def load_camera_pose(path: str | Path) -> CameraPose:
         MessageError: the file lacks the keys or holds a bad pose.
         OSError: the file cannot be read.
     """
-    params = read_ros_parameters(path)
+    try:
+        params = read_params_file(path)
+    except ValueError as err:
+        raise MessageError(str(path), None, str(err)) from None
+    unknown = sorted(set(params) - set(CALIBRATION_PARAMETERS))
+    if unknown:
+        raise MessageError(str(path), None, f"unknown parameter(s) {unknown}")
     try:
         return CameraPose(tuple(params["camera_pose.position"]),
                           tuple(params["camera_pose.orientation_xyzw"]))

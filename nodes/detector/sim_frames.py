@@ -15,48 +15,26 @@ import cv2
 import numpy as np
 import pybullet
 
-from msgs_py.camera import CameraIntrinsics, CameraPose
-from nodes.common.paths import config_path
+from msgs_py.camera import CameraPose
 from nodes.common.transforms import tool_down_quaternion
 from nodes.detector.bench import Frame, scene_for
-from nodes.detector.camera_model import read_ros_parameters
 from nodes.detector.tag_geometry import tag_corners_world
 
 SETTLE_S = 0.25  # physics time before the first frame, s
 ARM_HOVER_Z = 0.10  # TCP height over the block the arm hides, m
 
 
-def _yaml_parameters(name: str) -> dict:
-    path = config_path(name)
-    return read_ros_parameters(path) if path.exists() else {}
-
-
-def config_from_parameters(cls, values: dict, prefix: str = ""):
-    """A params dataclass with the values config/sim.yaml gives (defaults otherwise)."""
-    kwargs = {}
-    for f in dataclasses.fields(cls):
-        meta = f.metadata.get("ros")
-        name = prefix + (meta.name if meta and meta.name else f.name)
-        if meta is not None and name in values:
-            default = f.default
-            value = values[name]
-            kwargs[f.name] = tuple(value) if isinstance(default, tuple | list) else value
-    return cls(**kwargs)
-
-
 def sim_frames(seeds, density: float, noise: float | None):
     """(frames iterator, true camera pose) for the given seeds."""
-    from nodes.sim.config import CameraConfig, SimConfig
-    from nodes.sim.kinematics import pose_matrix, solve_tcp_ik
+    from nodes.common.transforms import pose_matrix
+    from nodes.sim.config import load_sim_configs
+    from nodes.sim.kinematics import solve_tcp_ik
     from nodes.sim.world import SimWorld
 
-    values = _yaml_parameters("sim.yaml")
-    sim_config = config_from_parameters(SimConfig, values)
-    camera_config = config_from_parameters(CameraConfig, values, "camera.")
+    sim_config, camera_config, _ = load_sim_configs()
     camera = camera_config.model()
     noise_std = camera_config.noise_std if noise is None else noise
-    intrinsics = CameraIntrinsics(camera.width, camera.height, camera.fx, camera.fy,
-                                  camera.cx, camera.cy)
+    intrinsics = camera.intrinsics
     true_pose = CameraPose(tuple(camera.position), tuple(camera.orientation_xyzw))
 
     def frames() -> Iterator[Frame]:

@@ -11,7 +11,6 @@ failing block and the reason and exits 1 (the PNG, if asked for, still shows the
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -20,52 +19,45 @@ from typing import Any
 import yaml
 
 from msgs_py import MessageError, load_scene, save_plan
+from nodes.common.params import configs_from_parameters, read_params_file
 from nodes.common.paths import config_path
 from nodes.planner.config import PlannerConfig
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.dispatch import goal_kind, plan_goal
 
+#: The planner node's parameter groups, as ``--params-file`` names them.
+PLANNER_PARAMETERS = (("", PlannerConfig), ("unlabeled.", UnlabeledConfig))
 
-def load_config(path: str | Path | None, overrides: dict[str, Any]) -> PlannerConfig:
-    """``PlannerConfig`` from a ROS params file (``/**: ros__parameters:``) plus overrides."""
-    values: dict[str, Any] = {}
+
+def load_planner_configs(path: str | Path | None, overrides: dict[str, Any]
+                         ) -> tuple[PlannerConfig, UnlabeledConfig]:
+    """Both parameter groups from a ROS params file (default ``config/planner.yaml``) plus
+    ``overrides`` (parameter names; None values are ignored).
+
+    Raises:
+        FileNotFoundError: ``path`` given and missing.
+        ValueError: an unknown parameter name or a bad value (named).
+    """
     file = config_path(path or "planner.yaml")
+    values: dict[str, Any] = {}
     if file.exists():
-        data = yaml.safe_load(file.read_text()) or {}
-        for section in data.values():
-            if isinstance(section, dict):
-                values.update(section.get("ros__parameters", {}))
+        values = read_params_file(file, node_name="planner")
     elif path is not None:
         raise FileNotFoundError(f"no parameter file {file}")
-    names = {f.name for f in dataclasses.fields(PlannerConfig)}
-    values = {k: v for k, v in values.items() if k in names}
     values.update({k: v for k, v in overrides.items() if v is not None})
-    return PlannerConfig(**values)
+    config, unlabeled = configs_from_parameters(PLANNER_PARAMETERS, values, str(file))
+    return config, unlabeled
+
+
+def load_config(path: str | Path | None, overrides: dict[str, Any]) -> PlannerConfig:
+    """``PlannerConfig`` from a ROS params file plus overrides (``load_planner_configs``)."""
+    return load_planner_configs(path, overrides)[0]
 
 
 def load_unlabeled_config(path: str | Path | None, overrides: dict[str, Any]
                           ) -> UnlabeledConfig:
-    """``UnlabeledConfig`` from the ``unlabeled`` group of the same parameter file (nested
-    or as dotted keys) plus overrides named ``unlabeled.<field>``."""
-    values: dict[str, Any] = {}
-    file = config_path(path or "planner.yaml")
-    if file.exists():
-        data = yaml.safe_load(file.read_text()) or {}
-        for section in data.values():
-            params = section.get("ros__parameters", {}) if isinstance(section, dict) else {}
-            nested = params.get("unlabeled", {})
-            values.update(nested if isinstance(nested, dict) else {})
-            values.update({k[len("unlabeled."):]: v for k, v in params.items()
-                           if k.startswith("unlabeled.")})
-    values.update({k[len("unlabeled."):]: v for k, v in overrides.items()
-                   if k.startswith("unlabeled.") and v is not None})
-    names = {f.name for f in dataclasses.fields(UnlabeledConfig)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise ValueError(f"unknown parameters {['unlabeled.' + k for k in unknown]}")
-    if isinstance(values.get("push_lengths"), list):
-        values["push_lengths"] = tuple(values["push_lengths"])
-    return UnlabeledConfig(**values)
+    """``UnlabeledConfig`` from the same file plus ``unlabeled.<field>`` overrides."""
+    return load_planner_configs(path, overrides)[1]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -95,11 +87,11 @@ def main(args: Sequence[str] | None = None) -> int:
     for item in opts.set:
         name, _, value = item.partition("=")
         overrides[name.strip()] = yaml.safe_load(value)
-    overrides["unlabeled.method"], overrides["unlabeled.b"] = opts.method, opts.b
-    ours = {k: v for k, v in overrides.items() if k.startswith("unlabeled.")}
+    for name, flag in (("unlabeled.method", opts.method), ("unlabeled.b", opts.b)):
+        if flag is not None:  # a flag given overrides --set; one not given leaves it be
+            overrides[name] = flag
     try:
-        config = load_config(opts.params, {k: v for k, v in overrides.items() if k not in ours})
-        unlabeled = load_unlabeled_config(opts.params, ours)
+        config, unlabeled = load_planner_configs(opts.params, overrides)
         scene = load_scene(opts.scene)
         outcome = plan_goal(scene, config, unlabeled)
     except (MessageError, ValueError, TypeError, FileNotFoundError) as err:

@@ -10,8 +10,6 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-import numpy as np
-
 from msgs_py import Pose2D, Scene
 from msgs_py.cell import GripperGeometry
 from msgs_py.footprint import block_corners
@@ -70,7 +68,3 @@ def nearest_goal_yaw(goal: Pose2D, start_theta: float, yaw_exact: bool) -> Pose2
     quarter = 0.5 * math.pi
     theta = start_theta + math.remainder(goal.theta - start_theta, quarter)
     return Pose2D(goal.x, goal.y, theta)
-
-
-def poses_array(poses: Iterable[Pose2D]) -> np.ndarray:
-    return np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)

@@ -28,6 +28,7 @@ from msgs_py.ros_codecs import block_set_from_markers, scene_from_string, to_str
 from nodes.common.params import declare_config
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
+from nodes.planner.cli import PLANNER_PARAMETERS
 from nodes.planner.config import PlannerConfig
 from nodes.planner.markers import plan_markers
 from nodes.planner.unlabeled.config import UnlabeledConfig
@@ -236,7 +237,7 @@ SPEC = NodeSpec(
     "Plans pick-and-place and push actions (pIRS over a PRM; rearrangement pebble graphs "
     "for unlabeled and retrieval goals) from /blocks/detected to /goal_layout; publishes "
     "/plan, /plan/markers, /planner/status; serves /planner/replan.",
-    configs=(("", PlannerConfig), ("unlabeled.", UnlabeledConfig)),
+    configs=PLANNER_PARAMETERS,
 )
 
 

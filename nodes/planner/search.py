@@ -55,7 +55,7 @@ class _Timeout(Exception):
 
 
 @dataclass
-class SearchStats:
+class PirsStats:
     roadmaps: int = 0
     clears: int = 0
     backtracks: int = 0
@@ -81,7 +81,7 @@ class Search:
     yaw_exact: bool
     rng: np.random.Generator
     deadline: float
-    stats: SearchStats = field(default_factory=SearchStats)
+    stats: PirsStats = field(default_factory=PirsStats)
     should_stop: Callable[[], bool] = lambda: False  # external cancel request (node shutdown)
 
     def __post_init__(self) -> None:

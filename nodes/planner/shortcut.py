@@ -14,10 +14,10 @@ from __future__ import annotations
 from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.actions import Action
 from nodes.planner.context import PlanContext
-from nodes.planner.transfers import Transfer, direct_transfers
+from nodes.planner.transfers import DirectTransfer, direct_transfers
 
 
-def _as_action(block: int, start: Pose2D, end: Pose2D, t: Transfer) -> Action:
+def _as_action(block: int, start: Pose2D, end: Pose2D, t: DirectTransfer) -> Action:
     if t.kind == "push":
         return Push.between(block, start, end)
     return PickPlace(block, start, end, t.grasp)

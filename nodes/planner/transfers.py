@@ -23,7 +23,7 @@ from nodes.planner.roadmap import LINE_TOL, MIN_PUSH
 
 
 @dataclass(frozen=True)
-class Transfer:
+class DirectTransfer:
     """A feasible one-action move: ``kind`` "pick_place" (with ``grasp``) or "push"."""
 
     kind: str
@@ -33,7 +33,7 @@ class Transfer:
 
 
 def direct_transfers(ctx: PlanContext, occupied: State, start: Pose2D, end: Pose2D,
-                     movable: Iterable[int] = ()) -> list[Transfer]:
+                     movable: Iterable[int] = ()) -> list[DirectTransfer]:
     """Every single action taking a block from ``start`` to ``end`` among ``occupied``.
 
     ``occupied`` must not contain the moving block itself. Blocks in ``movable`` may be hit
@@ -44,7 +44,7 @@ def direct_transfers(ctx: PlanContext, occupied: State, start: Pose2D, end: Pose
     ids_by_bit = list(ctx.ids)
     moved = math.hypot(end.x - start.x, end.y - start.y)
     per_m = cfg.a_dist if cfg.distance_cost else 0.0
-    out: list[Transfer] = []
+    out: list[DirectTransfer] = []
     end_block = block_corners(end.x, end.y, end.theta, geom.block_size)[None]
     b_fixed, b_mask = obstacles.query(end_block[:, None])
     if ctx.workspace.contains(end_block)[0] and not b_fixed[0]:
@@ -57,7 +57,7 @@ def direct_transfers(ctx: PlanContext, occupied: State, start: Pose2D, end: Pose
             if p_fixed[g] or q_fixed[g] or not inside[g]:
                 continue
             hits = mask_to_ids(int(p_mask[g] | q_mask[g] | b_mask[0]), ids_by_bit)
-            out.append(Transfer("pick_place", g, tuple(hits),
+            out.append(DirectTransfer("pick_place", g, tuple(hits),
                                 cfg.a1 + cfg.a3 * len(hits) + per_m * moved))
     same_yaw = abs(math.remainder(end.theta - start.theta, 2 * math.pi)) < 1e-9
     if same_yaw and moved > MIN_PUSH:
@@ -71,6 +71,6 @@ def direct_transfers(ctx: PlanContext, occupied: State, start: Pose2D, end: Pose
                 if not fixed[0] and inside:
                     hits = mask_to_ids(int(mask[0]), ids_by_bit)
                     extra = (cfg.a_dist + cfg.a_push_len) * moved if cfg.distance_cost else 0.0
-                    out.append(Transfer("push", None, tuple(hits),
+                    out.append(DirectTransfer("push", None, tuple(hits),
                                         cfg.a2 + cfg.a3 * len(hits) + extra))
     return sorted(out, key=lambda t: (t.cost, t.kind, t.grasp or 0))

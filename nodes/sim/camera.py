@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from msgs_py.camera import CameraIntrinsics
 from nodes.common.transforms import quaternion_to_matrix
 
 #: Optical frame -> OpenGL camera frame (y and z flipped).
@@ -22,7 +23,7 @@ OPTICAL_TO_GL = np.diag([1.0, -1.0, -1.0])
 
 
 @dataclass(frozen=True)
-class CameraModel:
+class SimCamera:
     width: int
     height: int
     fx: float
@@ -46,6 +47,11 @@ class CameraModel:
     def rotation(self) -> np.ndarray:
         """Optical frame axes in world (columns)."""
         return quaternion_to_matrix(self.orientation_xyzw)
+
+    @property
+    def intrinsics(self) -> CameraIntrinsics:
+        """What ``sensor_msgs/CameraInfo`` publishes of this camera."""
+        return CameraIntrinsics(self.width, self.height, self.fx, self.fy, self.cx, self.cy)
 
     @property
     def k(self) -> np.ndarray:
@@ -97,7 +103,7 @@ class CameraModel:
                 & (uv[:, 1] >= margin_px) & (uv[:, 1] <= self.height - 1 - margin_px))
 
 
-def render_rgb(client, camera: CameraModel, noise_std: float = 0.0,
+def render_rgb(client, camera: SimCamera, noise_std: float = 0.0,
                rng: np.random.Generator | None = None) -> np.ndarray:
     """Render (H, W, 3) uint8 RGB with TinyRenderer (headless); optional Gaussian noise."""
     import pybullet

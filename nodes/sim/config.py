@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
-from nodes.common.params import param
+from nodes.common.params import configs_from_parameters, param, read_params_file
+from nodes.common.paths import config_path
 from nodes.sim import robot_model as rm
-from nodes.sim.camera import CameraModel
+from nodes.sim.camera import SimCamera
 
 #: Park pose of the TCP (world, tool pointing down, closing axis along x): outside the camera's
 #: view of the workspace; the executor parks here before asking for a fresh detection.
@@ -100,8 +102,8 @@ class CameraConfig:
         if self.rate_hz < 0 or self.noise_std < 0:
             raise ValueError("camera.rate_hz and camera.noise_std must be >= 0")
 
-    def model(self) -> CameraModel:
-        return CameraModel(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
+    def model(self) -> SimCamera:
+        return SimCamera(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
                            tuple(self.position), tuple(self.orientation_xyzw))
 
 
@@ -110,3 +112,21 @@ class RandomSceneConfig:
     n_blocks: int = param(0, "random scene with this many blocks (0 = use scene_file)")
     density: float = param(0.25, "random scene density: block area / workspace area")
     seed: int = param(0, "random scene seed")
+
+
+#: The sim node's parameter groups, as ``--params-file`` names them.
+SIM_PARAMETERS = (("", SimConfig), ("camera.", CameraConfig), ("random.", RandomSceneConfig))
+
+
+def load_sim_configs(path: str | Path | None = None
+                     ) -> tuple[SimConfig, CameraConfig, RandomSceneConfig]:
+    """The sim's configs from its parameter file (default ``config/sim.yaml``), as the node
+    would declare them: for tools and tests that build a ``SimWorld`` without ROS.
+
+    Raises:
+        ValueError: an unknown parameter or a bad value (named with the file).
+    """
+    file = config_path(path or "sim.yaml")
+    values = read_params_file(file, node_name="sim")
+    sim, camera, random = configs_from_parameters(SIM_PARAMETERS, values, str(file))
+    return sim, camera, random

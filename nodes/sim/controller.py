@@ -21,8 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nodes.common.transforms import pose_matrix
 from nodes.sim import robot_model as rm
-from nodes.sim.kinematics import pose_matrix, solve_tcp_ik, tcp_pose
+from nodes.sim.kinematics import solve_tcp_ik, tcp_pose
 
 ACCEPTED_FRAMES = ("world", "")
 

@@ -56,15 +56,6 @@ def tcp_pose(q) -> np.ndarray:
     return flange_pose(q) @ FLANGE_TO_TCP
 
 
-def pose_matrix(position, quat_xyzw) -> np.ndarray:
-    from nodes.common.transforms import quaternion_to_matrix
-
-    t = np.eye(4)
-    t[:3, :3] = quaternion_to_matrix(quat_xyzw)
-    t[:3, 3] = np.asarray(position, dtype=float)
-    return t
-
-
 def pose_error(t_a: np.ndarray, t_b: np.ndarray) -> tuple[float, float]:
     """(position error m, rotation error rad) between two 4x4 poses."""
     dp = float(np.linalg.norm(t_a[:3, 3] - t_b[:3, 3]))

@@ -17,7 +17,7 @@ from nodes.common.paths import config_path
 from nodes.common.scenes import random_scene
 from nodes.common.transforms import tool_down_matrix
 from nodes.sim import robot_model as rm
-from nodes.sim.camera import CameraModel
+from nodes.sim.camera import SimCamera
 from nodes.sim.kinematics import solve_tcp_ik
 
 #: Random scenes are centred under the camera and shaped like the default workspace
@@ -40,7 +40,7 @@ def load_sim_scene(scene_file: str, n_random: int = 0, density: float = 0.25,
     return load_scene(config_path(scene_file))
 
 
-def scene_problems(scene: Scene, camera: CameraModel, q_ref) -> list[str]:
+def scene_problems(scene: Scene, camera: SimCamera, q_ref) -> list[str]:
     """Why ``scene`` does not fit the cell (empty when it does)."""
     ws, s = scene.workspace, scene.block_size
     problems = []

@@ -5,16 +5,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
-from sensor_msgs.msg import CameraInfo, Image, JointState
+from sensor_msgs.msg import JointState
 
 from msgs_py import MessageError, parse_text
 from msgs_py.checks import check_keys, finite_float, integer, require_mapping
-from nodes.sim.camera import CameraModel
-
-CAMERA_FRAME = "camera_optical_frame"
 
 
 def pose_from_msg(msg: PoseStamped) -> tuple[list[float], list[float], str]:
@@ -44,31 +40,6 @@ def joint_state_msg(stamp: Time, names, positions, velocities) -> JointState:
     msg.name = list(names)
     msg.position = [float(v) for v in positions]
     msg.velocity = [float(v) for v in velocities]
-    return msg
-
-
-def image_msg(stamp: Time, rgb: np.ndarray) -> Image:
-    msg = Image()
-    msg.header.stamp = stamp
-    msg.header.frame_id = CAMERA_FRAME
-    msg.height, msg.width = int(rgb.shape[0]), int(rgb.shape[1])
-    msg.encoding = "rgb8"
-    msg.is_bigendian = 0
-    msg.step = msg.width * 3
-    msg.data = np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
-    return msg
-
-
-def camera_info_msg(stamp: Time, camera: CameraModel) -> CameraInfo:
-    msg = CameraInfo()
-    msg.header.stamp = stamp
-    msg.header.frame_id = CAMERA_FRAME
-    msg.width, msg.height = camera.width, camera.height
-    msg.distortion_model = "plumb_bob"
-    msg.d = [0.0] * 5
-    msg.k = [float(v) for v in camera.k.reshape(-1)]
-    msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-    msg.p = [camera.fx, 0.0, camera.cx, 0.0, 0.0, camera.fy, camera.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
     return msg
 
 

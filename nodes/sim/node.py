@@ -30,15 +30,14 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError
+from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
 from msgs_py.ros_codecs import block_set_to_markers, executor_status_from_string, ns_to_stamp
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
-from nodes.sim.config import CameraConfig, RandomSceneConfig, SimConfig
+from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.layout import load_sim_scene, scene_problems
 from nodes.sim.messages import (
-    camera_info_msg,
-    image_msg,
     joint_state_msg,
     parse_disturb,
     pose_from_msg,
@@ -253,9 +252,8 @@ class SimNode(Node):
         if stamp_ns < self._blackout_until_ns:
             return stamp_ns  # a dropped frame: nothing rendered, nothing published
         rgb = self.world.render()
-        stamp = ns_to_stamp(stamp_ns)
-        self.pub_image.publish(image_msg(stamp, rgb))
-        self.pub_info.publish(camera_info_msg(stamp, self.world.camera))
+        self.pub_image.publish(array_to_image(rgb, stamp_ns))
+        self.pub_info.publish(intrinsics_to_camera_info(self.world.camera.intrinsics, stamp_ns))
         return stamp_ns
 
     def destroy_node(self) -> None:
@@ -284,7 +282,7 @@ SPEC = NodeSpec(
     SimNode,
     "The simulated UR10e cell (PyBullet): arm controller with IK, 2F-85 gripper, tagged "
     "blocks, overhead camera, event monitor.",
-    configs=(("", SimConfig), ("camera.", CameraConfig), ("random.", RandomSceneConfig)),
+    configs=SIM_PARAMETERS,
     topics=TOPICS,
 )
 

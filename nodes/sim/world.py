@@ -18,7 +18,7 @@ from pybullet_utils import bullet_client
 from msgs_py import BlockPose, Scene
 from nodes.common.paths import asset_path
 from nodes.sim import robot_model as rm
-from nodes.sim.camera import CameraModel, render_rgb
+from nodes.sim.camera import SimCamera, render_rgb
 from nodes.sim.config import SimConfig
 from nodes.sim.controller import ArmController, SetpointResult, clip_gripper_gap
 from nodes.sim.events import ContactKind, EventMonitor
@@ -44,7 +44,7 @@ class _Disturbance:
 class SimWorld:
     """The simulated cell; ``step()`` advances physics by one ``config.dt``."""
 
-    def __init__(self, config: SimConfig, camera: CameraModel, scene: Scene,
+    def __init__(self, config: SimConfig, camera: SimCamera, scene: Scene,
                  noise_std: float = 0.0) -> None:
         self.config = config
         self.camera = camera

@@ -13,19 +13,17 @@ from msgs_py.camera import CameraIntrinsics
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
 from nodes.detector.calibration import calibrate_camera
-from nodes.detector.camera_model import load_camera_pose, read_ros_parameters
+from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector
-from nodes.detector.sim_frames import config_from_parameters
 from nodes.detector.tags import TagFinder
-from nodes.sim.config import CameraConfig, SimConfig
+from nodes.sim.config import load_sim_configs
 from nodes.sim.world import SimWorld
 
 
 def sim_world(scene_file: str) -> SimWorld:
-    values = read_ros_parameters(config_path("sim.yaml"))
-    camera = config_from_parameters(CameraConfig, values, "camera.")
-    world = SimWorld(config_from_parameters(SimConfig, values), camera.model(),
+    sim, camera, _ = load_sim_configs()
+    world = SimWorld(sim, camera.model(),
                      load_scene(config_path(scene_file)), noise_std=camera.noise_std)
     world.step(60)
     return world

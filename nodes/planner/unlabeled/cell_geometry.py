@@ -42,6 +42,7 @@ from msgs_py.footprint import (
     push_corners,
     to_polygons,
 )
+from msgs_py.poses import poses_to_array
 from nodes.planner.context import PlanContext
 from nodes.planner.unlabeled.rpg import Site, Transfer
 
@@ -60,7 +61,7 @@ MIN_BUFFER_GAP = 0.001
 
 
 @dataclass(frozen=True)
-class Step:
+class TransferPrimitive:
     """One primitive of a transfer, at site level: ``axis_from``/``axis_to`` pick the grasp
     axis (site yaw + axis * 90 degrees) at each end of a pick-and-place."""
 
@@ -69,10 +70,6 @@ class Step:
     end: Pose2D
     axis_from: int = 0
     axis_to: int = 0
-
-
-def _poses(poses: Sequence[Pose2D]) -> np.ndarray:
-    return np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)
 
 
 class CellSpace:
@@ -112,7 +109,7 @@ class CellSpace:
     # --- sites -----------------------------------------------------------------------------
     def footprints_of(self, poses: Sequence[Pose2D]) -> np.ndarray:
         """Block footprint polygons at ``poses``."""
-        arr = _poses(poses)
+        arr = poses_to_array(poses)
         return to_polygons(block_corners(arr[:, 0], arr[:, 1], arr[:, 2], self.s))
 
     def add_site(self, pose: Pose2D) -> Site:
@@ -211,8 +208,8 @@ class CellSpace:
         if not sites:
             return []
         cand = sorted(sites)
-        xy = _poses([self.poses[s] for s in cand])[:, :2]
-        ref = _poses([self.poses[a] for a in anchors])[:, :2]
+        xy = poses_to_array([self.poses[s] for s in cand])[:, :2]
+        ref = poses_to_array([self.poses[a] for a in anchors])[:, :2]
         d = np.hypot(xy[:, None, 0] - ref[None, :, 0], xy[:, None, 1] - ref[None, :, 1])
         return [cand[k] for k in np.flatnonzero(d.min(axis=1) <= self.reach)]
 
@@ -281,7 +278,7 @@ class CellSpace:
                          [5, 0, 1, 2, 3], 4)
         dist = np.zeros(len(feet))
         if near:
-            ref = _poses([self.poses[n] for n in near])[:, :2]
+            ref = poses_to_array([self.poses[n] for n in near])[:, :2]
             dist = np.min(np.hypot(xy[:, None, 0] - ref[None, :, 0],
                                    xy[:, None, 1] - ref[None, :, 1]), axis=1)
         squeeze = np.where(tier >= 2, -np.minimum(room, self.buffer_clearance), 0.0)
@@ -341,7 +338,7 @@ class CellSpace:
             for cb in range(2):
                 if usable(pads_a[ca]) and usable(pads_b[cb]) and usable(foot_b, "workspace"):
                     t = Transfer(u, v, 1, cfg.a1 + per_m * a.distance_to(b),
-                                 (Step("pick_place", a, b, ca, cb),))
+                                 (TransferPrimitive("pick_place", a, b, ca, cb),))
                     out.append((t, room(pads_a[ca], pads_b[cb], foot_b)))
         for sign, anchor in ((-1.0, b), (1.0, a)):
             for n in face_normals(anchor.theta):
@@ -358,16 +355,16 @@ class CellSpace:
                             if sign < 0:  # place on p, push into b
                                 if not (usable(pads_a[c_other]) and usable(pads_p[cp])):
                                     continue
-                                steps = (Step("pick_place", a, p, c_other, cp),
-                                         Step("push", p, b))
+                                steps = (TransferPrimitive("pick_place", a, p, c_other, cp),
+                                         TransferPrimitive("push", p, b))
                                 need = room(pads_a[c_other], pads_p[cp], sweep)
                                 carried = a.distance_to(p)
                             else:  # push a out to p, then place on b
                                 if not (usable(pads_p[cp]) and usable(pads_b[c_other])
                                         and usable(foot_b, "workspace")):
                                     continue
-                                steps = (Step("push", a, p),
-                                         Step("pick_place", p, b, cp, c_other))
+                                steps = (TransferPrimitive("push", a, p),
+                                         TransferPrimitive("pick_place", p, b, cp, c_other))
                                 need = room(sweep, pads_p[cp], pads_b[c_other], foot_b)
                                 carried = p.distance_to(b)
                             cost = cfg.a1 + cfg.a2 + per_m * carried + per_push * length
@@ -403,7 +400,7 @@ class _Batch:
         self.space = space
         self.nodes = nodes
         self.n = len(nodes)
-        self.arr = _poses([space.poses[s] for s in nodes])
+        self.arr = poses_to_array([space.poses[s] for s in nodes])
         polys = [space.footprints[s] for s in nodes] + space.fixed_polys
         self.polys = np.array(polys, dtype=object)
         self.tree = shapely.STRtree(self.polys) if polys else None
@@ -478,7 +475,7 @@ class _Batch:
     def _pick_place(self, i: int, j: int, ci: int, cj: int) -> Transfer:
         a, b = self._pose(i), self._pose(j)
         cost = self.space.cfg.a1 + self.per_m * a.distance_to(b)
-        step = Step("pick_place", a, b, ci, cj)
+        step = TransferPrimitive("pick_place", a, b, ci, cj)
         return Transfer(self.nodes[i], self.nodes[j], 1, cost, (step,))
 
     def _direct_pushes(self, src: Sequence[int], dst: Sequence[int]) -> list[Transfer]:
@@ -508,7 +505,7 @@ class _Batch:
         out = []
         for k, (i, j, _, length) in enumerate(cand):
             if ok[k] and self.clear_except(hit[k], i, j):
-                step = Step("push", self._pose(i), self._pose(j))
+                step = TransferPrimitive("push", self._pose(i), self._pose(j))
                 cost = cfg.a2 + self.per_push_m * length
                 out.append(Transfer(self.nodes[i], self.nodes[j], 1, cost, (step,)))
         return out
@@ -584,10 +581,12 @@ class _Batch:
                 continue
             axis_mid = int(np.argmax(stage[k, other]))
             if sign < 0:
-                steps = (Step("pick_place", start, mid, int(self.pad_axis[i, j]), axis_mid),
-                         Step("push", mid, end))
+                steps = (TransferPrimitive("pick_place", start, mid, int(self.pad_axis[i, j]),
+                                           axis_mid),
+                         TransferPrimitive("push", mid, end))
             else:
-                steps = (Step("push", start, mid),
-                         Step("pick_place", mid, end, axis_mid, int(self.pad_axis[j, i])))
+                steps = (TransferPrimitive("push", start, mid),
+                         TransferPrimitive("pick_place", mid, end, axis_mid,
+                                           int(self.pad_axis[j, i])))
             best[(i, j)] = Transfer(self.nodes[i], self.nodes[j], 2, cost, steps)
         return list(best.values())

@@ -94,7 +94,7 @@ class SearchConfig:
 
 
 @dataclass
-class SearchStats:
+class HypergraphStats:
     expansions: int = 0
     rpgs: int = 0
     hypernodes: int = 0
@@ -108,7 +108,7 @@ class SearchStats:
 
 
 class SearchFailure(Exception):
-    def __init__(self, reason: str, stats: SearchStats) -> None:
+    def __init__(self, reason: str, stats: HypergraphStats) -> None:
         super().__init__(reason)
         self.reason = reason
         self.stats = stats
@@ -138,7 +138,7 @@ class HypergraphSearch:
         self.required = frozenset(goal.required)
         self.config = config
         self.rng = rng
-        self.stats = SearchStats()
+        self.stats = HypergraphStats()
         self._rpgs: dict[frozenset[Site], RearrangementPebbleGraph] = {}
         self._hyper: dict[tuple[frozenset[Site], tuple[int, ...]], int] = {}
         self._hard: dict[Site, bool] = {}

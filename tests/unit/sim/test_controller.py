@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from nodes.common.transforms import tool_down_quaternion
+from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.sim import robot_model as rm
 from nodes.sim.config import HOME_JOINTS
 from nodes.sim.controller import ArmController, clip_gripper_gap
-from nodes.sim.kinematics import pose_error, pose_matrix, tcp_pose
+from nodes.sim.kinematics import pose_error, tcp_pose
 
 DT = 1.0 / 240.0
 
