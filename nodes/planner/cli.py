@@ -44,8 +44,10 @@ def load_planner_configs(path: str | Path | None, overrides: dict[str, Any]
         values = read_params_file(file, node_name="planner")
     elif path is not None:
         raise FileNotFoundError(f"no parameter file {file}")
-    values.update({k: v for k, v in overrides.items() if v is not None})
-    config, unlabeled = configs_from_parameters(PLANNER_PARAMETERS, values, str(file))
+    given = {k: v for k, v in overrides.items() if v is not None}
+    values.update(given)
+    source = f"{file}{' and the command line' if given else ''}"
+    config, unlabeled = configs_from_parameters(PLANNER_PARAMETERS, values, source)
     return config, unlabeled
 
 

@@ -35,6 +35,18 @@ def test_plan_command_reports_bad_input_and_no_plan(tmp_path, capsys):
                  "--budget", "2"]) in (0, 1)
 
 
+def test_set_reaches_every_parameter_group_and_refuses_unknown_names(tmp_path, capsys):
+    scene = str(config_path("scenes/unlabeled.yaml"))
+    out = tmp_path / "plan.json"
+    assert main([scene, "-o", str(out), "--set", "unlabeled.method=assignment"]) == 0
+    assert load_plan(out).planner == "assignment_pirs"
+    assert main([scene, "-o", str(out), "--method", "pebble_graphs",
+                 "--set", "unlabeled.method=assignment"]) == 0
+    assert load_plan(out).planner == "pebble_graphs"  # the flag wins over --set
+    assert main([scene, "--set", "n_sample=3"]) == 2
+    assert "unknown parameter(s) ['n_sample']" in capsys.readouterr().err
+
+
 def test_bench_rows_carry_the_design_figures():
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true")
