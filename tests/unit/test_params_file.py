@@ -37,7 +37,7 @@ def test_unknown_names_are_refused_and_types_coerced(tmp_path):
         configs_from_parameters(SIM_PARAMETERS, {"camera.fxx": 1.0}, "x.yaml")
     with pytest.raises(ValueError, match="budget_s"):
         configs_from_parameters(PLANNER_PARAMETERS, {"budget_s": "soon"}, "x.yaml")
-    with pytest.raises(ValueError, match="x.yaml: .*budget_s"):
+    with pytest.raises(ValueError, match=r"x\.yaml: .*budget_s"):
         configs_from_parameters(PLANNER_PARAMETERS, {"budget_s": -1.0}, "x.yaml")
 
 

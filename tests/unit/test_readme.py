@@ -1,4 +1,5 @@
-"""The README is the front door: its node sections list every declared parameter."""
+"""The README is the front door; the node reference (docs/nodes.md) lists every declared
+parameter with its declared default."""
 
 from __future__ import annotations
 
@@ -11,13 +12,14 @@ from nodes.common.params import describe_config
 from tests.helpers import REPO
 
 README = (REPO / "README.md").read_text()
+NODES = (REPO / "docs" / "nodes.md").read_text()
 NODE_MODULES = ["nodes.sim.node", "nodes.detector.node", "nodes.planner.node",
                 "nodes.executor.node", "nodes.tools.goal"]
 
 
 def section(name: str) -> str:
-    match = re.search(rf"^### {name} \(.*?(?=^### |^## )", README, re.S | re.M)
-    assert match, f"README has no '### {name} (...)' section"
+    match = re.search(rf"^### {name} \(.*?(?=^### |^## )", NODES, re.S | re.M)
+    assert match, f"docs/nodes.md has no '### {name} (...)' section"
     return match.group(0)
 
 
