@@ -81,7 +81,11 @@ def die_with_launcher() -> None:
 def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     """Run ``spec``'s node until shutdown; returns the process exit code."""
     import rclpy
-    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+    from rclpy.executors import (
+        ExternalShutdownException,
+        MultiThreadedExecutor,
+        SingleThreadedExecutor,
+    )
 
     argv = list(sys.argv if args is None else [f"densepack-{spec.name}", *args])
     user_args, ros_argv = split_ros_args(argv)
@@ -100,7 +104,10 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     code = 0
     try:
         node = spec.factory()
-        executor = MultiThreadedExecutor(num_threads=spec.threads)
+        # rclpy's MultiThreadedExecutor polls its futures in Python on every wake-up: for a
+        # node whose callbacks are all short, one thread costs a fraction of the CPU.
+        executor = (SingleThreadedExecutor() if spec.threads == 1
+                    else MultiThreadedExecutor(num_threads=spec.threads))
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

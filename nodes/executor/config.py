@@ -12,11 +12,12 @@ from nodes.executor.motion import Limits, ToolPose
 
 @dataclass(frozen=True)
 class ExecutorConfig:
-    rate_hz: float = param(100.0, "setpoint streaming rate (on ROS time)", unit="Hz")
+    rate_hz: float = param(50.0, "setpoint streaming rate (on ROS time); the arm controller "
+                           "interpolates between setpoints", unit="Hz")
     auto_start: bool = param(True, "start executing as soon as a plan arrives")
     travel_height: float = param(
-        0.15, "TCP height for moves above the blocks (a carried block clears 5 cm blocks)",
-        unit="m")
+        0.10, "TCP height for moves above the blocks: a carried block's bottom clears 5 cm "
+        "blocks by 3.7 cm", unit="m")
     grasp_height: float = param(
         0.012, "TCP (fingertip) height when closing on a block: pads grip its lower part",
         unit="m")
@@ -27,14 +28,31 @@ class ExecutorConfig:
         unit="m")
     push_backoff: float = param(
         0.006, "after a push, back off this far along -d before lifting", unit="m")
-    speed: float = param(0.25, "max TCP speed for travel", unit="m/s")
-    accel: float = param(0.6, "max TCP acceleration for travel", unit="m/s^2")
-    descend_speed: float = param(0.10, "max TCP speed when descending or lifting", unit="m/s")
-    push_speed: float = param(0.03, "TCP speed along a push (slow: quasi-static sliding)",
+    speed: float = param(1.0, "max TCP speed for travel (UR10e: 1 m/s)", unit="m/s")
+    accel: float = param(4.0, "peak TCP acceleration for travel (cosine ramps: the mean over "
+                         "a ramp is 2/pi of it)", unit="m/s^2")
+    descend_speed: float = param(
+        0.5, "max TCP speed descending or lifting above the last approach_distance",
+        unit="m/s")
+    approach_distance: float = param(
+        0.015, "the last stretch of a descent onto a block, a table spot or behind a block, "
+        "taken at approach_speed", unit="m")
+    approach_speed: float = param(
+        0.1, "TCP speed over the last approach_distance: contact happens slowly", unit="m/s")
+    push_speed: float = param(0.1, "TCP speed along a push (quasi-static sliding)",
                               unit="m/s")
-    push_accel: float = param(0.1, "TCP acceleration along a push", unit="m/s^2")
-    yaw_rate: float = param(1.5, "max tool yaw rate", unit="rad/s")
-    gripper_settle_s: float = param(0.8, "wait after a gripper command", unit="s")
+    push_accel: float = param(
+        0.5, "TCP acceleration along a push: far below friction's deceleration (~3.4 m/s^2), "
+        "so the block never slides ahead of the fingers", unit="m/s^2")
+    yaw_rate: float = param(3.0, "max tool yaw rate (UR10e wrist 3: 180 deg/s)", unit="rad/s")
+    yaw_accel: float = param(12.0, "peak tool yaw acceleration", unit="rad/s^2")
+    blend_radius: float = param(
+        0.025, "lift -> carry and retreat -> travel corners are rounded within this radius "
+        "(a carried block still clears the others by 1.2 cm)", unit="m")
+    gripper_settle_s: float = param(
+        0.3, "wait after a gripper command when the gripper reports no finger positions "
+        "(with them, the executor waits until the fingers reach the opening or stop)",
+        unit="s")
     grip_command: float = param(
         0.0, "opening commanded to grip: the force-limited fingers stop on the block", unit="m")
     convergence_tol: float = param(
@@ -48,6 +66,13 @@ class ExecutorConfig:
     park_pose: tuple = param(
         [0.25, -0.55, 0.40, 0.0], "TCP pose out of the camera's view: x, y, z, yaw",
         unit="m, rad")
+    look_offset: float = param(
+        0.10, "after an action the arm looks from this far outside the workspace's robot-side "
+        "edge (x_min), where no part of it hides a block from the overhead camera", unit="m")
+    look_height: float = param(0.25, "TCP height of the look pose", unit="m")
+    look_while_moving: bool = param(
+        True, "after triggering the camera, move on towards the next action at travel height "
+        "while the detection comes (the action starts once it is judged)")
     pos_tolerance: float = param(
         cell.PLACED_TOLERANCE_XY,
         "a block further than this from its expected pose needs a correction",
@@ -79,8 +104,13 @@ class ExecutorConfig:
             raise ValueError(f"parameter 'safe_box' needs 6 numbers, got {list(self.safe_box)}")
         if len(self.park_pose) != 4:
             raise ValueError(f"parameter 'park_pose' needs x, y, z, yaw, got {self.park_pose}")
-        if not self.grasp_height < self.travel_height:
-            raise ValueError("parameter 'grasp_height' must be below 'travel_height'")
+        if not self.grasp_height + self.approach_distance < self.travel_height:
+            raise ValueError("parameters 'grasp_height' + 'approach_distance' must be below "
+                             "'travel_height'")
+        for name in ("speed", "accel", "descend_speed", "approach_speed", "push_speed",
+                     "push_accel", "yaw_rate", "yaw_accel"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
         if not self.in_safe_box(self.park):
             raise ValueError(f"parameter 'park_pose' {self.park_pose} is outside 'safe_box'")
 
@@ -98,15 +128,19 @@ class ExecutorConfig:
 
     @property
     def travel_limits(self) -> Limits:
-        return Limits(self.speed, self.accel, self.yaw_rate)
+        return Limits(self.speed, self.accel, self.yaw_rate, self.yaw_accel)
 
     @property
     def vertical_limits(self) -> Limits:
-        return Limits(self.descend_speed, self.accel, self.yaw_rate)
+        return Limits(self.descend_speed, self.accel, self.yaw_rate, self.yaw_accel)
+
+    @property
+    def approach_limits(self) -> Limits:
+        return Limits(self.approach_speed, self.accel, self.yaw_rate, self.yaw_accel)
 
     @property
     def push_limits(self) -> Limits:
-        return Limits(self.push_speed, self.push_accel, self.yaw_rate)
+        return Limits(self.push_speed, self.push_accel, self.yaw_rate, self.yaw_accel)
 
     def in_safe_box(self, pose: ToolPose) -> bool:
         x0, x1, y0, y1, z0, z1 = self.safe_box

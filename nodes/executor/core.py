@@ -7,13 +7,16 @@ planner for a new plan. The loop, per the paper's cell plus perception feedback:
 
     observe (arm parked) -> check the world is as expected -> run action k -> observe -> ...
 
-Before the first action and after each action the arm parks out of the camera's view and
-the core waits for a detection taken after that moment. If every block stands within
-tolerance of where it should, the next action starts from the *perceived* poses; if not,
-the core asks the planner to replan from the perceived state (at most ``max_replans``
-times). After the last action every block is verified against the goal. Errors (a target
-outside the safe box, a TCP that does not converge, a plan naming blocks nobody has seen)
-stop the arm safely: lift, park, and report the reason.
+Before the first action the arm parks out of the camera's view; after each action it stops
+at a look pose just outside the workspace (where it hides no block), and the core waits for
+a detection taken after that moment. Once the camera has taken the frame the arm already
+moves on, at travel height, towards the next action's block; the action itself starts when
+the detection is judged. If every block stands within tolerance of where it should, the
+next action starts from the *perceived* poses; if not, the core asks the planner to replan
+from the perceived state (at most ``max_replans`` times). After the last action the arm parks
+and every block is verified against the goal. Errors (a target outside the safe box, a TCP
+that does not converge, a plan naming blocks nobody has seen) stop the arm safely: lift,
+park, and report the reason.
 """
 
 from __future__ import annotations
@@ -25,11 +28,21 @@ from dataclasses import dataclass, field
 from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
 from msgs_py.cell import GripperGeometry, table_margin_of
 from nodes.executor.config import ExecutorConfig
+from nodes.executor.ledger import TimeLedger
 from nodes.executor.motion import ToolPose
-from nodes.executor.primitives import action_steps, expected_after, park_steps
+from nodes.executor.primitives import (
+    action_steps,
+    expected_after,
+    hover_steps,
+    look_steps,
+    park_steps,
+)
 from nodes.executor.recovery import free_spot, holds_block
 from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
 from nodes.executor.verify import Deviation, deviations, goal_errors
+
+#: A tick advances the running script by at most this many tick periods (see ``_run``).
+MAX_TICKS_PER_STEP = 2.0
 
 
 class Phase(enum.Enum):
@@ -68,6 +81,7 @@ class ExecutorCore:
         self._held_from: Pose2D | None = None  # where the held block was picked up
         self.commanded: ToolPose | None = None  # last setpoint streamed
         self.finger_gap: float | None = None
+        self._new_gaps: list[tuple[float, float]] = []  # (time, gap) since the last tick
         self.tcp_stamp: float | None = None
         self._recovering = False  # holding an unknown block at start-up
         self._checked_fingers = False
@@ -77,6 +91,10 @@ class ExecutorCore:
         self._after_runner: str = ""  # what to do when the runner finishes
         self._observe_purpose = ""
         self._trigger_ns: int | None = None
+        self._frame_taken = False  # the camera answered the trigger: the arm may move on
+        self._pending_detection: BlockSet | None = None  # arrived while the arm was moving
+        self._script_lag = 0.0  # how far the runner's script time trails the clock (s)
+        self._last_run: float | None = None
         self._trigger_time = 0.0
         self._triggers = 0
         self._replans = 0
@@ -89,6 +107,7 @@ class ExecutorCore:
             "actions_executed": 0.0, "replans": 0.0, "observations": 0.0,
             "execution_time_s": 0.0,
         }
+        self.ledger = TimeLedger()
         self._started_at: float | None = None
         self._last_idle_look: float | None = None
         self._out = Outputs()
@@ -102,9 +121,18 @@ class ExecutorCore:
         self.tcp = pose
         self.tcp_stamp = stamp_s
 
-    def on_finger_gap(self, gap: float) -> None:
-        """The measured gap between the pads (m): tells whether the fingers hold a block."""
+    def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
+        """The measured gap between the pads (m), taken at ``stamp_s`` (ROS time, s): tells
+        whether the fingers hold a block, and when a gripper command is done."""
         self.finger_gap = gap
+        if stamp_s is not None:
+            self._new_gaps.append((stamp_s, gap))
+
+    def on_frame_taken(self, stamp_ns: int) -> None:
+        """The camera answered our trigger: the frame was taken at ``stamp_ns``."""
+        if self.phase is Phase.OBSERVING and self._trigger_ns is not None:
+            self._trigger_ns = max(self._trigger_ns, stamp_ns)
+            self._frame_taken = True
 
     def on_detection(self, detection: BlockSet) -> None:
         """Take a detection; only one taken after our camera trigger counts as an observation."""
@@ -114,6 +142,12 @@ class ExecutorCore:
             return
         self._trigger_ns = None
         self.metrics["observations"] += 1
+        if self.runner is not None:  # moving on towards the next block: judge on arrival
+            self._pending_detection = detection
+            return
+        self._take_detection(detection)
+
+    def _take_detection(self, detection: BlockSet) -> None:
         self.perceived = {b.id: b.pose for b in detection.blocks}
         self._judge_observation(detection)
 
@@ -183,12 +217,26 @@ class ExecutorCore:
             self._wait_for_plan(now)
         if self._started_at is not None:
             self.metrics["execution_time_s"] = now - self._started_at
+        self.ledger.charge(now, self._activity())
         # Requests made by input callbacks (a detection that calls for a replan, say) since the
         # last tick are handed on here: tick() is the only place outputs leave the core.
         self._out.log, self._pending_log = self._pending_log, []
         self._out.trigger_camera, self._want_trigger = self._want_trigger, False
         self._out.request_replan, self._want_replan = self._want_replan, False
         return self._out
+
+    def _activity(self) -> str:
+        """What the time since the last tick went to (for the per-kind time metrics)."""
+        if self.phase is Phase.REPLANNING:
+            return "replan"
+        label = self.runner.current_label if self.runner is not None else ""
+        if label.startswith("block ") and self.plan is not None:
+            kinds = {a.block: a.type for a in self.plan.actions[self.index:self.index + 1]}
+            block = int(label.split()[1].rstrip(":"))
+            return kinds.get(block, "other")
+        if self.phase is Phase.OBSERVING or label.startswith(("look", "park")):
+            return "look"
+        return "other"
 
     def _look_while_idle(self, now: float) -> None:
         """No plan yet: park, and show the planner the blocks with the arm out of view."""
@@ -219,7 +267,7 @@ class ExecutorCore:
             block=block,
             last_error=self.last_error,
             detail=self.detail,
-            metrics=dict(self.metrics, replans=float(self._replans)),
+            metrics=dict(self.metrics, replans=float(self._replans), **self.ledger.metrics()),
         )
 
     # --- internals: plans -------------------------------------------------------------------------
@@ -267,19 +315,47 @@ class ExecutorCore:
 
     # --- internals: observing ---------------------------------------------------------------------
     def _observe(self, purpose: str) -> None:
+        """Park out of the camera's view, then take a frame (start, resume, the goal)."""
+        self._begin_observing(purpose)
+        self._start_runner(park_steps(self.cfg), then="trigger")
+
+    def _look_again_from_park(self) -> None:
+        """Another frame, from the park pose (where the arm hides nothing), counting tries."""
+        triggers = self._triggers
+        self._observe(self._observe_purpose)
+        self._triggers = triggers
+
+    def _begin_observing(self, purpose: str) -> None:
         self.phase = Phase.OBSERVING
         self._observe_purpose = purpose
         self._triggers = 0
         self._trigger_ns = None
-        self._start_runner(park_steps(self.cfg), then="trigger")
+        self._pending_detection = None
 
     def _trigger(self) -> None:
         self._triggers += 1
         self._trigger_time = self._now
         self._trigger_ns = round(self._now * 1e9)
+        self._frame_taken = False
         self._want_trigger = True
 
+    def _move_on_while_looking(self) -> None:
+        """The frame is taken: head for the next action's block at travel height while the
+        detection comes (nothing is touched before the world is judged)."""
+        self._frame_taken = False
+        plan = self.plan
+        if (not self.cfg.look_while_moving or plan is None or self.runner is not None
+                or self._observe_purpose != "after_action" or self.index >= len(plan.actions)):
+            return
+        action = plan.actions[self.index]
+        start = self.expected.get(action.block)
+        if start is not None:
+            self._start_runner(hover_steps(action, start, self.geo, self.cfg), then="hovering")
+
     def _wait_for_detection(self, now: float) -> None:
+        if self._frame_taken:
+            self._move_on_while_looking()
+            return
         if self._trigger_ns is None:
             return
         if now - self._trigger_time < self.cfg.detection_timeout_s:
@@ -287,8 +363,9 @@ class ExecutorCore:
         if self._triggers >= self.cfg.detection_retries:
             self._fail(f"no detection after {self._triggers} camera triggers")
             return
-        self._log(f"no detection {self.cfg.detection_timeout_s:.0f} s after the trigger; retrying")
-        self._trigger()
+        self._log(f"no detection {self.cfg.detection_timeout_s:.0f} s after the trigger; "
+                  "looking again from the park pose")
+        self._look_again_from_park()
 
     def _judge_observation(self, detection: BlockSet) -> None:
         purpose = self._observe_purpose
@@ -307,8 +384,8 @@ class ExecutorCore:
                                   self.cfg.yaw_tolerance)
         if missing:
             if self._triggers < self.cfg.detection_retries:
-                self._log(f"blocks {missing} not seen; looking again")
-                self._trigger()
+                self._log(f"blocks {missing} not seen; looking again from the park pose")
+                self._look_again_from_park()
                 return
             self._fail(f"blocks {missing} are no longer seen by the camera")
             return
@@ -324,6 +401,9 @@ class ExecutorCore:
             return
         if self.index < len(plan.actions):
             self._next_action()
+            return
+        if purpose != "goal":
+            self._observe("goal")  # the last look is from the park pose: the run ends there
             return
         self._verify_goal()
 
@@ -416,7 +496,17 @@ class ExecutorCore:
         steps = action_steps(action, start, self.geo, self.cfg)
         self._held_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
+        if self._looks_after(self.index) and plan.scene is not None:
+            end = self.expected[action.block]
+            steps += look_steps(self.cfg, plan.scene.workspace,
+                                ToolPose(end.x, end.y, self.cfg.travel_height, 0.0))
         self._start_runner(steps, then="action_done")
+
+    def _looks_after(self, index: int) -> bool:
+        """Whether the camera looks from the look pose after action ``index`` (the last one is
+        looked at from the park pose)."""
+        assert self.plan is not None
+        return self.cfg.observe_every_action and index + 1 < len(self.plan.actions)
 
     def _put_back_held_block(self) -> None:
         """After a stop while carrying a block: set it down where it was picked up (known free)."""
@@ -467,6 +557,8 @@ class ExecutorCore:
         self._set_down_held_block(block, spot)
 
     def _start_runner(self, steps: list[Step], then: str) -> None:
+        self._script_lag = 0.0
+        self._last_run = None
         start = self.commanded or self.tcp
         assert start is not None
         self.runner = StepRunner(steps, start, self.cfg.convergence_tol,
@@ -476,7 +568,17 @@ class ExecutorCore:
     def _run(self, now: float) -> None:
         runner = self.runner
         assert runner is not None
-        tick = runner.update(now, self.tcp, self.tcp_stamp)
+        # Script time advances at most MAX_TICKS_PER_STEP ticks per tick: an executor held up
+        # (a loaded machine) resumes its trajectory where it was, so consecutive setpoints
+        # stay close in space, never a chord across a corner of the path.
+        step = 0.0 if self._last_run is None else now - self._last_run
+        self._script_lag += max(0.0, step - MAX_TICKS_PER_STEP / self.cfg.rate_hz)
+        self._last_run = now
+        lag = self._script_lag
+        gaps = [(t - lag, g) for t, g in self._new_gaps]
+        self._new_gaps = []
+        measured_at = None if self.tcp_stamp is None else self.tcp_stamp - lag
+        tick = runner.update(now - lag, self.tcp, measured_at, gaps)
         self.commanded = tick.setpoint
         self._out.setpoint = tick.setpoint
         self._out.gripper = tick.gripper
@@ -503,13 +605,21 @@ class ExecutorCore:
         elif then == "action_done":
             self.metrics["actions_executed"] += 1
             self.holding = None
+            looked_from_here = self._looks_after(self.index) and self.plan.scene is not None
             self.index += 1
             if self._stop_requested:
                 self._stop_safely("stop requested", failed=False)
-            elif self.cfg.observe_every_action or self.index >= len(self.plan.actions):
-                self._observe("after_action")
+            elif looked_from_here:  # the script ended at the look pose
+                self._begin_observing("after_action")
+                self._trigger()
+            elif self.index >= len(self.plan.actions):
+                self._observe("goal")
             else:
                 self._next_action()
+        elif then == "hovering":
+            pending, self._pending_detection = self._pending_detection, None
+            if pending is not None:
+                self._take_detection(pending)
         elif then == "idle_parked":
             pass
         elif then == "put_back":

@@ -1,12 +1,14 @@
-"""Straight-line tool motions with a minimum-jerk time law, under speed and acceleration limits.
+"""Straight-line tool motions, time-optimal under speed and acceleration limits.
 
 Every densepack setpoint is a downward-pointing tool at (x, y, z) with its closing axis at
-``yaw`` (docs/contracts.md), so a tool pose here is four numbers. A move interpolates
-position along the segment and yaw along the shorter arc with the same normalised
-minimum-jerk profile u(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5, whose peak speed is 1.875 D/T
-and peak acceleration 5.7735 D/T^2 for a distance D covered in T: the duration is the
-smallest T that keeps both under the limits, for the translation and the rotation alike.
-Minimum-jerk keeps a carried block from slipping in the fingers at the start and end.
+``yaw`` (docs/contracts.md), so a tool pose here is four numbers. A move interpolates the
+position along the segment and the yaw along the shorter arc with one speed profile: a
+trapezoid whose ramps are half cosines, v(t) = V (1 - cos(pi t / Ta)) / 2. It cruises at the
+speed limit like the UR's own ``movel`` but, unlike a plain trapezoid, its acceleration is
+continuous (finite jerk), so a carried block is not jolted at the start and end of a ramp.
+With peak acceleration A a ramp lasts Ta = pi V / (2 A) and covers V Ta / 2; a move too
+short to reach V peaks at V' = sqrt(2 A D / pi). The slowest degree of freedom (translation or
+yaw) sets the profile, and both follow it, so the tool moves on the straight line.
 """
 
 from __future__ import annotations
@@ -15,10 +17,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-#: Peak speed and peak acceleration of the unit minimum-jerk profile (per D/T and D/T^2).
-MJ_PEAK_SPEED = 1.875
-MJ_PEAK_ACCEL = 10.0 / math.sqrt(3.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,7 +33,7 @@ class ToolPose:
         return np.array([self.x, self.y, self.z])
 
     def distance_to(self, other: ToolPose) -> float:
-        return float(np.linalg.norm(self.position - other.position))
+        return math.dist((self.x, self.y, self.z), (other.x, other.y, other.z))
 
     def with_z(self, z: float) -> ToolPose:
         return ToolPose(self.x, self.y, z, self.yaw)
@@ -43,62 +41,122 @@ class ToolPose:
     def offset(self, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> ToolPose:
         return ToolPose(self.x + dx, self.y + dy, self.z + dz, self.yaw)
 
+    def plus(self, dx: float, dy: float, dz: float, dyaw: float) -> ToolPose:
+        return ToolPose(self.x + dx, self.y + dy, self.z + dz, self.yaw + dyaw)
+
 
 def equivalent_yaw_near(yaw: float, reference: float) -> float:
     """``yaw + k*pi`` nearest ``reference``: a two-finger grasp is symmetric under a half turn."""
     return reference + math.remainder(yaw - reference, math.pi)
 
 
-def minimum_jerk(tau: float) -> float:
-    tau = min(max(tau, 0.0), 1.0)
-    return tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
-
-
-def minimum_jerk_duration(distance: float, max_speed: float, max_accel: float) -> float:
-    """Shortest duration of a minimum-jerk move of ``distance`` under both limits."""
-    if distance <= 0.0:
-        return 0.0
-    return max(MJ_PEAK_SPEED * distance / max_speed,
-               math.sqrt(MJ_PEAK_ACCEL * distance / max_accel))
-
-
 @dataclass(frozen=True, slots=True)
 class Limits:
-    """Tool speed limits: linear (m/s, m/s^2) and yaw (rad/s, rad/s^2)."""
+    """Tool limits: linear speed (m/s) and acceleration (m/s^2), yaw rate (rad/s) and yaw
+    acceleration (rad/s^2)."""
 
     speed: float
     accel: float
-    yaw_rate: float = 1.5
-    yaw_accel: float = 3.0
+    yaw_rate: float = 3.0
+    yaw_accel: float = 12.0
+
+
+@dataclass(frozen=True, slots=True)
+class Profile:
+    """The cosine-ramp trapezoid of a unit distance: peak speed ``v`` (1/s), ramp time ``ramp``
+    and cruise time ``cruise`` (s)."""
+
+    v: float
+    ramp: float
+    cruise: float
+
+    @classmethod
+    def fastest(cls, speed: float, accel: float) -> Profile:
+        """The shortest profile over a unit distance with peak speed and acceleration limits
+        ``speed`` (1/s) and ``accel`` (1/s^2)."""
+        if speed == math.inf:
+            return cls(0.0, 0.0, 0.0)
+        v = min(speed, math.sqrt(2.0 * accel / math.pi))
+        ramp = math.pi * v / (2.0 * accel)
+        return cls(v, ramp, max(0.0, 1.0 / v - ramp))
+
+    @property
+    def duration(self) -> float:
+        return 2.0 * self.ramp + self.cruise
+
+    def position(self, t: float) -> float:
+        """Fraction of the distance covered ``t`` seconds in (clamped to [0, 1])."""
+        if self.v == 0.0 or t >= self.duration:
+            return 1.0
+        if t <= 0.0:
+            return 0.0
+        if t > self.ramp + self.cruise:
+            return 1.0 - self._ramp_position(self.duration - t)
+        if t > self.ramp:
+            return self._ramp_position(self.ramp) + self.v * (t - self.ramp)
+        return self._ramp_position(t)
+
+    def _ramp_position(self, t: float) -> float:
+        return 0.5 * self.v * (t - self.ramp / math.pi * math.sin(math.pi * t / self.ramp))
+
+
+def move_duration(distance: float, speed: float, accel: float) -> float:
+    """Shortest duration of a move of ``distance`` under the speed and acceleration limits."""
+    if distance <= 0.0:
+        return 0.0
+    return Profile.fastest(speed / distance, accel / distance).duration
 
 
 @dataclass(frozen=True, slots=True)
 class LinearMove:
-    """A straight move from ``start`` to ``end`` (yaw along the shorter arc) over ``duration``."""
+    """A straight move from ``start`` to ``end`` (yaw along the shorter arc)."""
 
     start: ToolPose
     end: ToolPose
-    duration: float
+    profile: Profile
 
     @classmethod
     def plan(cls, start: ToolPose, end: ToolPose, limits: Limits) -> LinearMove:
-        end = ToolPose(end.x, end.y, end.z, start.yaw + math.remainder(end.yaw - start.yaw,
-                                                                        2 * math.pi))
-        duration = max(
-            minimum_jerk_duration(start.distance_to(end), limits.speed, limits.accel),
-            minimum_jerk_duration(abs(end.yaw - start.yaw), limits.yaw_rate, limits.yaw_accel),
-        )
-        return cls(start, end, duration)
+        end = ToolPose(end.x, end.y, end.z,
+                       start.yaw + math.remainder(end.yaw - start.yaw, 2 * math.pi))
+        distance, turn = start.distance_to(end), abs(end.yaw - start.yaw)
+        # In the unit of the move (the fraction done), each degree of freedom limits speed
+        # and acceleration; the tighter limit of the two sets one profile for both.
+        speed = min(_per(limits.speed, distance), _per(limits.yaw_rate, turn))
+        accel = min(_per(limits.accel, distance), _per(limits.yaw_accel, turn))
+        return cls(start, end, Profile.fastest(speed, accel))
+
+    @property
+    def duration(self) -> float:
+        return self.profile.duration
+
+    @property
+    def length(self) -> float:
+        return self.start.distance_to(self.end)
 
     def sample(self, t: float) -> ToolPose:
         """The setpoint ``t`` seconds after the move began (clamped to its ends)."""
-        if self.duration <= 0.0:
+        u = self.profile.position(t)
+        if u >= 1.0:
             return self.end
-        u = minimum_jerk(t / self.duration)
         a, b = self.start, self.end
-        return ToolPose(
-            a.x + u * (b.x - a.x),
-            a.y + u * (b.y - a.y),
-            a.z + u * (b.z - a.z),
-            a.yaw + u * (b.yaw - a.yaw),
-        )
+        return a.plus(u * (b.x - a.x), u * (b.y - a.y), u * (b.z - a.z), u * (b.yaw - a.yaw))
+
+    def time_left_within(self, distance: float) -> float:
+        """How long before its end the move comes within ``distance`` (m) of its end point."""
+        if self.length <= distance:
+            return self.duration
+        fraction = 1.0 - distance / self.length
+        lo, hi = 0.0, self.duration
+        for _ in range(40):  # bisection on the monotone profile
+            mid = 0.5 * (lo + hi)
+            if self.profile.position(mid) < fraction:
+                lo = mid
+            else:
+                hi = mid
+        return self.duration - hi
+
+
+def _per(limit: float, extent: float) -> float:
+    """A limit in units of the move's fraction: inf when the degree of freedom does not move."""
+    return limit / extent if extent > 1e-12 else math.inf

@@ -123,8 +123,9 @@ class ExecutorNode(Node):
         except (ValueError, IndexError):
             return  # another publisher's joints, or a partial message: not ours to judge
         if math.isfinite(gap):
+            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
             with self.lock:
-                self.core.on_finger_gap(float(gap))
+                self.core.on_finger_gap(float(gap), stamp if stamp > 0.0 else None)
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
@@ -151,7 +152,7 @@ class ExecutorNode(Node):
         if out.gripper is not None:
             self.gripper_pub.publish(Float64(data=float(out.gripper)))
         if out.trigger_camera:
-            self._call(self.camera, "/camera/trigger")
+            self._call(self.camera, "/camera/trigger", self._on_frame_taken)
         if out.request_replan:
             self._call(self.replanner, "/planner/replan")
         self._publish_status(status, now.nanoseconds * 1e-9)
@@ -166,21 +167,35 @@ class ExecutorNode(Node):
         o.x, o.y, o.z, o.w = (float(v) for v in q)
         return msg
 
-    def _call(self, client, name: str) -> None:
+    def _call(self, client, name: str, on_success: Callable[[str], None] | None = None) -> None:
         if not client.service_is_ready():
             self.get_logger().warning(f"{name} is not available; the executor will retry")
             return
         future = client.call_async(Trigger.Request())
-        future.add_done_callback(lambda f: self._log_answer(name, f))
+        future.add_done_callback(lambda f: self._answered(name, f, on_success))
 
-    def _log_answer(self, name: str, future) -> None:
+    def _answered(self, name: str, future, on_success: Callable[[str], None] | None) -> None:
         try:
             answer = future.result()
         except Exception as err:  # a dying server: the core's timeouts retry
             self.get_logger().warning(f"{name} failed: {err}")
             return
-        if answer is not None and not answer.success:
+        if answer is None:
+            return
+        if not answer.success:
             self.get_logger().warning(f"{name} refused: {answer.message}")
+        elif on_success is not None:
+            on_success(answer.message)
+
+    def _on_frame_taken(self, message: str) -> None:
+        """The camera's answer names the frame's stamp (ns): the arm may move on."""
+        try:
+            stamp_ns = int(message)
+        except ValueError:
+            self.get_logger().warning(f"/camera/trigger answered {message!r}, not a stamp")
+            return
+        with self.lock:
+            self.core.on_frame_taken(stamp_ns)
 
     def _publish_status(self, status, now_s: float) -> None:
         """On every change of state/progress, and once a second with fresh metrics."""
@@ -199,6 +214,7 @@ SPEC = NodeSpec(
     "perception (observe after each action, replan on drift, verify the goal).",
     configs=(("", ExecutorConfig),),
     topics=TOPICS,
+    threads=1,  # every callback is short; the timer, inputs and service answers take turns
 )
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from msgs_py import PickPlace, Pose2D, Push
+from msgs_py import PickPlace, Pose2D, Push, Workspace
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
@@ -47,18 +47,29 @@ def pick_place_steps(
     pick = ToolPose(start.x, start.y, cfg.travel_height, pick_yaw)
     place = ToolPose(action.to.x, action.to.y, cfg.travel_height, place_yaw)
     tag = f"block {action.block}"
+    r = cfg.blend_radius
     return [
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise"),
-        Grip(geo.approach_opening, 0.0, f"{tag}: open"),
-        Move(pick, cfg.travel_limits, f"{tag}: travel above"),
-        Move(pick.with_z(cfg.grasp_height), cfg.vertical_limits, f"{tag}: descend"),
+        Grip(geo.approach_opening, 0.0, f"{tag}: open", wait=False),
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r),
+        Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False),
+        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: fingers open"),
+        *_settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend"),
         Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block),
-        Move(pick, cfg.vertical_limits, f"{tag}: lift"),
-        Move(place, cfg.travel_limits, f"{tag}: carry"),
-        Move(place.with_z(cfg.grasp_height + cfg.place_drop), cfg.vertical_limits,
-             f"{tag}: lower"),
+        Move(pick, cfg.vertical_limits, f"{tag}: lift", blend=r),
+        Move(place, cfg.travel_limits, f"{tag}: carry", converge=False),
+        *_settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower"),
         Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release"),
-        Move(place, cfg.vertical_limits, f"{tag}: retreat"),
+        Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r),
+    ]
+
+
+def _settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str) -> list[Step]:
+    """Straight down from ``above`` to height ``z``: fast, then the last approach_distance
+    at approach_speed (contact happens slowly); the end is waited for."""
+    return [
+        Move(above.with_z(z + cfg.approach_distance), cfg.vertical_limits, label,
+             converge=False),
+        Move(above.with_z(z), cfg.approach_limits, f"{label} (last cm)"),
     ]
 
 
@@ -83,21 +94,57 @@ def push_steps(
     back = end.offset(-dx * cfg.push_backoff, -dy * cfg.push_backoff)
     tag = f"block {action.block}"
     return [
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise"),
-        Grip(geo.push_opening, 0.0, f"{tag}: close to push"),
-        Move(contact.with_z(cfg.travel_height), cfg.travel_limits, f"{tag}: travel behind"),
-        Move(contact, cfg.vertical_limits, f"{tag}: descend behind"),
+        Grip(geo.push_opening, 0.0, f"{tag}: close to push", wait=False),
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius),
+        Move(contact.with_z(cfg.travel_height), cfg.travel_limits, f"{tag}: travel behind",
+             converge=False),
+        # the fingers must be at the push opening before they go down beside the blocks
+        Grip(geo.push_opening, cfg.gripper_settle_s, f"{tag}: fingers closed"),
+        *_settle_onto(contact.with_z(cfg.travel_height), cfg.push_height, cfg,
+                      f"{tag}: descend behind"),
         Move(end, cfg.push_limits, f"{tag}: push"),
-        Move(back, cfg.push_limits, f"{tag}: back off"),
-        Move(back.with_z(cfg.travel_height), cfg.vertical_limits, f"{tag}: retreat"),
+        Move(back, cfg.push_limits, f"{tag}: back off", converge=False),
+        Move(back.with_z(cfg.travel_height), cfg.vertical_limits, f"{tag}: retreat",
+             converge=False, blend=cfg.blend_radius),
     ]
 
 
 def park_steps(cfg: ExecutorConfig) -> list[Step]:
     return [
-        Rise(max(cfg.travel_height, 0.0), cfg.vertical_limits, "park: rise"),
+        Rise(cfg.travel_height, cfg.vertical_limits, "park: rise", blend=cfg.blend_radius),
         Move(cfg.park, cfg.travel_limits, "park"),
     ]
+
+
+def look_pose(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> ToolPose:
+    """Where the arm waits while the camera looks: ``look_offset`` outside the workspace's
+    robot-side edge, level with ``near`` (clamped to the workspace's y range).
+
+    The UR's base stands at the origin, on the -x side of the workspace, and its links lie
+    between the base and the TCP, so with the TCP there no part of the arm stands between
+    the overhead camera and a block in the workspace.
+    """
+    y = min(max(near.y, workspace.y_min), workspace.y_max)
+    return ToolPose(workspace.x_min - cfg.look_offset, y, cfg.look_height, cfg.park.yaw)
+
+
+def look_steps(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> list[Step]:
+    """From above the workspace (at ``near``) to the look pose, stopping there."""
+    return [
+        Rise(cfg.travel_height, cfg.vertical_limits, "look: rise", blend=cfg.blend_radius),
+        Move(look_pose(cfg, workspace, near), cfg.travel_limits, "look"),
+    ]
+
+
+def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
+                cfg: ExecutorConfig) -> list[Step]:
+    """The first moves of ``action``, up to above its block at travel height: safe to make
+    before the world is judged (nothing is touched), so they overlap the camera's wait."""
+    steps = action_steps(action, start, geo, cfg)
+    last = next(k for k, step in enumerate(steps)
+                if isinstance(step, Move) and step.label.endswith(("travel above",
+                                                                   "travel behind")))
+    return steps[:last + 1]
 
 
 def action_steps(

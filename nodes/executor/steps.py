@@ -1,12 +1,18 @@
 """Step scripts: what the executor streams, one step after the other.
 
-A primitive (pick-and-place, push, park) is a list of steps: ``Move`` (a straight
-minimum-jerk move to a tool pose), ``Rise`` (straight up to a height from wherever the tool
-is), ``Grip`` (set the finger opening and let it settle). ``StepRunner`` plays a script:
-fed the time and the measured TCP at every tick, it returns the setpoint (and gripper
-command) to publish, so the node stays a thin timer callback and tests can play a script
-without ROS. A move starts from the last *commanded* pose, so streamed setpoints are
-continuous even when tracking lags; it ends only when the measured TCP has converged.
+A primitive (pick-and-place, push, park) is a list of steps: ``Move`` (a straight,
+time-optimal move to a tool pose), ``Rise`` (straight up to a height from wherever the tool
+is), ``Grip`` (set the finger opening and wait until the gripper has done it). ``StepRunner``
+plays a script: fed the time, the measured TCP and the measured finger gap at every tick, it
+returns the setpoint (and gripper command) to publish, so the node stays a thin timer
+callback and tests can play a script without ROS.
+
+A move starts from where the script last commanded the tool, so streamed setpoints are
+continuous even when tracking lags. A move with a ``blend`` radius hands over to the next
+move that far before its end, the way a UR blends ``movel`` segments: the two profiles
+overlap (one slowing down while the other speeds up, so the speed never exceeds either's
+limit) and the tool rounds the corner within the radius instead of stopping in it. A move
+without a blend ends only when the measured TCP has converged on its end point.
 """
 
 from __future__ import annotations
@@ -23,25 +29,33 @@ class Move:
     limits: Limits
     label: str = ""
     converge: bool = True
+    blend: float = 0.0  #: m: start the next move this far before the end (no convergence)
 
 
 @dataclass(frozen=True, slots=True)
 class Rise:
-    """Straight up (or down) to ``z`` at the current x, y, yaw."""
+    """Straight up (never down) to ``z`` at the current x, y, yaw."""
 
     z: float
     limits: Limits
     label: str = "rise"
+    blend: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
 class Grip:
-    """Set the finger opening; ``holds`` says which block is in the fingers afterwards."""
+    """Set the finger opening (m) and wait until the fingers are there or stopped on a block.
+
+    ``holds`` says which block is in the fingers afterwards. ``settle_s`` is how long to wait
+    when no finger measurement comes (a gripper that reports nothing). ``wait=False`` only
+    sends the command: the fingers move while the script goes on.
+    """
 
     opening: float
     settle_s: float
     label: str = ""
     holds: int | None = None
+    wait: bool = True
 
 
 Step = Move | Rise | Grip
@@ -60,6 +74,43 @@ class Tick:
 
 #: With no fresh measurement at all, give up after this many convergence timeouts.
 STALE_FACTOR = 5.0
+#: The gripper is done when its gap is this close to the command (m) ...
+GRIP_AT_POSITION = 0.0005
+#: ... or, having moved, has moved slower than GRIP_STILL_SPEED over the last GRIP_STILL_S
+#: (stopped on a block); never before GRIP_MIN_S (the command must reach the gripper first).
+#: Fingers that never move (already stopped on a block) count as done after GRIP_NO_MOTION_S.
+GRIP_STILL_SPEED = 0.002  # m/s
+GRIP_STILL_S = 0.04
+GRIP_MIN_S = 0.04
+GRIP_MOVED_M = 0.0005
+GRIP_NO_MOTION_S = 0.3
+#: A gripper that neither reaches its opening nor stops within this long has failed (s).
+GRIP_TIMEOUT_S = 3.0
+
+
+@dataclass(slots=True)
+class _Blending:
+    """A blended move's last part, still added to the setpoints while the next one starts."""
+
+    move: LinearMove
+    t0: float
+
+    def offset(self, now: float) -> ToolPose:
+        """Where this move still is relative to its end point."""
+        p, e = self.move.sample(now - self.t0), self.move.end
+        return ToolPose(p.x - e.x, p.y - e.y, p.z - e.z, p.yaw - e.yaw)
+
+
+def blend_overlap(current: LinearMove, following: LinearMove, radius: float) -> float:
+    """How long (s) the two moves may overlap: ``current`` within ``radius`` of its end,
+    ``following`` no further than ``radius`` from its start, and no longer than either's
+    speed ramp (so one slows down while the other speeds up)."""
+    if radius <= 0.0 or current.duration <= 0.0 or following.duration <= 0.0:
+        return 0.0
+    ending = current.time_left_within(radius)
+    starting = following.duration - following.time_left_within(
+        max(0.0, following.length - radius))
+    return min(ending, starting, current.profile.ramp, following.profile.ramp)
 
 
 class StepRunner:
@@ -74,7 +125,7 @@ class StepRunner:
         in_safe_box=lambda pose: True,
     ) -> None:
         self.steps = list(steps)
-        self.commanded = start
+        self.commanded = start  #: the end point of the last move begun (the nominal pose)
         self.tol = convergence_tol
         self.timeout = convergence_timeout_s
         self.in_safe_box = in_safe_box
@@ -82,8 +133,10 @@ class StepRunner:
         self._measured_at = 0.0
         self._t0: float | None = None
         self._move: LinearMove | None = None
+        self._blending: list[_Blending] = []
         self.gripper: float | None = None
         self._gripper_sent = False
+        self._gaps: list[tuple[float, float]] = []
 
     @property
     def finished(self) -> bool:
@@ -93,17 +146,20 @@ class StepRunner:
     def current_label(self) -> str:
         return "" if self.finished else self.steps[self.index].label
 
-    def update(self, now: float, measured: ToolPose | None,
-               measured_at: float | None = None) -> Tick:
-        """Advance by time ``now`` (s); ``measured`` is the latest TCP (None if unknown).
+    def update(self, now: float, measured: ToolPose | None, measured_at: float | None = None,
+               gaps: Sequence[tuple[float, float]] = ()) -> Tick:
+        """Advance to time ``now`` (s); ``measured`` is the latest TCP (None if unknown),
+        ``gaps`` the finger gaps (time s, gap m) measured since the last call (none when the
+        gripper reports nothing).
 
-        Steps that finish within this call hand their gripper command on, so a zero-wait
-        ``Grip`` followed at once by a move still reaches the gripper. ``measured_at`` is the
-        time the measurement was taken (default ``now``): a move fails to converge only on
+        Steps that finish within this call hand their gripper command on, so a ``Grip``
+        followed at once by a move still reaches the gripper. ``measured_at`` is the time the
+        measurement was taken (default ``now``): a move fails to converge only on
         measurements taken ``convergence_timeout_s`` after it ended, so a late /tcp_pose on a
         loaded machine delays the verdict instead of faking a failure.
         """
         self._measured_at = now if measured_at is None else measured_at
+        self._gaps.extend(gaps)
         gripper: float | None = None
         while not self.finished:
             step = self.steps[self.index]
@@ -116,19 +172,18 @@ class StepRunner:
                 gripper = tick.gripper
             if tick.error or not tick.done:
                 return Tick(tick.setpoint, gripper, tick.done, tick.error, tick.label)
-            self._advance()
-        return Tick(self.commanded, gripper, True)
+            self._advance(step, now)
+        setpoint = self._with_blend(self.commanded, now)
+        return Tick(setpoint, gripper, not self._blending)
 
     # --- internals ------------------------------------------------------------------------------
     def _begin(self, step: Step, now: float) -> str:
         """Start ``step``; returns why it is refused (empty when it may run)."""
         self._t0 = now
         self._gripper_sent = False
+        self._gaps = self._gaps[-1:]
         if isinstance(step, Move | Rise):
-            if isinstance(step, Move):
-                target = step.target
-            else:  # a rise never goes down (parking from the park pose, say)
-                target = self.commanded.with_z(max(step.z, self.commanded.z))
+            target = self._target(step)
             if not self.in_safe_box(target):
                 self._t0 = None
                 return (f"step '{step.label}' would go to ({target.x:.3f}, {target.y:.3f}, "
@@ -136,22 +191,37 @@ class StepRunner:
             self._move = LinearMove.plan(self.commanded, target, step.limits)
         return ""
 
+    def _target(self, step: Move | Rise) -> ToolPose:
+        if isinstance(step, Move):
+            return step.target
+        return self.commanded.with_z(max(step.z, self.commanded.z))
+
+    def _with_blend(self, pose: ToolPose, now: float) -> ToolPose:
+        """``pose`` plus what blended previous moves have still to go."""
+        self._blending = [b for b in self._blending if now - b.t0 < b.move.duration]
+        for b in self._blending:
+            d = b.offset(now)
+            pose = pose.plus(d.x, d.y, d.z, d.yaw)
+        return pose
+
     def _update_step(self, step: Step, now: float, measured: ToolPose | None) -> Tick:
         t = 0.0 if self._t0 is None else now - self._t0
         if isinstance(step, Grip):
-            gripper = None if self._gripper_sent else step.opening
-            self._gripper_sent = True
-            self.gripper = step.opening
-            return Tick(self.commanded, gripper, t >= step.settle_s, label=step.label)
+            return self._update_grip(step, t)
         move = self._move
         assert move is not None
-        setpoint = move.sample(t)
+        setpoint = self._with_blend(move.sample(t), now)
+        following = self._following_move(step)
+        if following is not None:
+            overlap = blend_overlap(move, following, step.blend)
+            if t >= move.duration - overlap:
+                return Tick(setpoint, None, True, label=step.label)
         if t < move.duration:
             return Tick(setpoint, None, False, label=step.label)
         self.commanded = move.end
         converge = step.converge if isinstance(step, Move) else True
-        if not converge:
-            return Tick(move.end, None, True, label=step.label)
+        if not converge or self._blending:
+            return Tick(setpoint, None, not self._blending, label=step.label)
         if measured is not None and measured.distance_to(move.end) <= self.tol:
             return Tick(move.end, None, True, label=step.label)
         late = self._measured_at - (self._t0 + move.duration)
@@ -166,7 +236,67 @@ class StepRunner:
                               f"(off by {off})")
         return Tick(move.end, None, False, label=step.label)
 
-    def _advance(self) -> None:
+    def _following_move(self, step: Step) -> LinearMove | None:
+        """The move that follows a blended ``step``, planned from its end (None: no blend)."""
+        if not isinstance(step, Move | Rise) or step.blend <= 0.0 or self._move is None:
+            return None
+        if self.index + 1 >= len(self.steps):
+            return None
+        nxt = self.steps[self.index + 1]
+        if not isinstance(nxt, Move | Rise):
+            return None
+        end = self._move.end
+        target = nxt.target if isinstance(nxt, Move) else end.with_z(max(nxt.z, end.z))
+        if not self.in_safe_box(target):
+            return None
+        return LinearMove.plan(end, target, nxt.limits)
+
+    def _update_grip(self, step: Grip, t: float) -> Tick:
+        # a command the gripper already has is not sent again (only waited for)
+        gripper = None if self._gripper_sent or self.gripper == step.opening else step.opening
+        self._gripper_sent = True
+        self.gripper = step.opening
+        t0 = self._t0 if self._t0 is not None else 0.0
+        measured = [(s, g) for s, g in self._gaps if s >= t0]
+        if not step.wait:
+            done = True
+        elif not measured:
+            done = t >= step.settle_s
+        else:
+            done = t >= GRIP_MIN_S and _gripper_done(self._gaps, step.opening, t)
+        if not done and measured and t > GRIP_TIMEOUT_S:
+            return Tick(self.commanded, gripper, False, label=step.label,
+                        error=f"step '{step.label}': the gripper neither reached "
+                              f"{step.opening * 1e3:.1f} mm nor stopped within "
+                              f"{GRIP_TIMEOUT_S:.0f} s (gap {measured[-1][1] * 1e3:.1f} mm)")
+        return Tick(self.commanded, gripper, done, label=step.label)
+
+    def _advance(self, step: Step, now: float) -> None:
+        move = self._move
+        if move is not None:
+            started = now if self._t0 is None else self._t0
+            left = move.duration - (now - started)
+            if left > 1e-9:  # blended: the rest of this move runs on under the next
+                self._blending.append(_Blending(move, now - (move.duration - left)))
+            self.commanded = move.end
         self.index += 1
         self._t0 = None
         self._move = None
+
+
+def _gripper_done(gaps: list[tuple[float, float]], opening: float, elapsed: float) -> bool:
+    """The fingers are at the commanded opening, or have stopped (on a block, say).
+
+    ``gaps`` are (time, gap) samples, the first one taken before the command.
+    """
+    t_last, g_last = gaps[-1]
+    if abs(g_last - opening) <= GRIP_AT_POSITION:
+        return True
+    first = max((k for k, (t, _) in enumerate(gaps) if t <= t_last - GRIP_STILL_S), default=0)
+    window = gaps[first:]  # the last GRIP_STILL_S, from the sample at or before its start
+    span = t_last - window[0][0]
+    values = [g for _, g in window]
+    still = span >= GRIP_STILL_S - 1e-9 and (
+        max(values) - min(values) <= GRIP_STILL_SPEED * span)
+    moved = abs(g_last - gaps[0][1]) > GRIP_MOVED_M
+    return still and (moved or elapsed >= GRIP_NO_MOTION_S)

@@ -27,7 +27,16 @@ class SimConfig:
     physics_rate_hz: float = param(240.0, "physics step rate (>= 240)", unit="Hz")
     solver_iterations: int = param(100, "constraint solver iterations per physics step")
     real_time_factor: float = param(
-        1.0, "pacing: simulated seconds per wall second (0 = as fast as possible)")
+        1.0, "pacing floor: simulated time never runs slower than this many seconds per wall "
+        "second (0 = no floor)")
+    lockstep_lead_s: float = param(
+        0.06, "while a setpoint stream comes, the sim runs as fast as it can but at most this "
+        "far (simulated time) ahead of the newest setpoint's stamp, so it never outruns the "
+        "executor; 0 = pace by real_time_factor alone", unit="s")
+    servo_delay_s: float = param(
+        0.08, "streamed setpoints are played back this far behind their stamps, interpolated "
+        "(like a UR servoj lookahead); must exceed lockstep_lead_s so playback never runs "
+        "dry", unit="s")
     clock_rate_hz: float = param(100.0, "/clock publish rate in simulated time", unit="Hz")
     state_rate_hz: float = param(
         50.0, "/joint_states and /tcp_pose rate in simulated time", unit="Hz")
@@ -57,6 +66,11 @@ class SimConfig:
             raise ValueError(f"physics_rate_hz must be >= 240, got {self.physics_rate_hz}")
         if self.real_time_factor < 0.0:
             raise ValueError(f"real_time_factor must be >= 0, got {self.real_time_factor}")
+        if self.lockstep_lead_s < 0.0 or self.servo_delay_s < 0.0:
+            raise ValueError("lockstep_lead_s and servo_delay_s must be >= 0")
+        if self.lockstep_lead_s > 0.0 and not self.servo_delay_s > self.lockstep_lead_s:
+            raise ValueError(f"servo_delay_s ({self.servo_delay_s}) must exceed "
+                             f"lockstep_lead_s ({self.lockstep_lead_s})")
         for name in ("clock_rate_hz", "state_rate_hz", "ground_truth_rate_hz", "events_rate_hz",
                      "contact_check_rate_hz"):
             if getattr(self, name) <= 0.0:

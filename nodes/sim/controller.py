@@ -1,21 +1,27 @@
-"""The arm's own controller (like the UR's): setpoint validation, IK, joint rate limiting.
+"""The arm's own controller (like the UR's): setpoint validation, IK, streamed playback.
 
-Pure logic, no PyBullet and no ROS: the world asks ``step(dt)`` for the joint position and
-velocity to command each physics step; the node hands over setpoints and gripper commands.
+Pure logic, no PyBullet and no ROS: the world asks ``step(dt, now)`` for the joint position
+and velocity to command each physics step; the node hands over setpoints and gripper commands.
 
-* A Cartesian setpoint (TCP pose in ``world``) is validated (frame, finite, unit-able
+* A Cartesian setpoint (TCP pose in ``world``, stamped) is validated (frame, finite, unit-able
   quaternion, above the safety plane ``min_tcp_z``), solved by closed-form IK with the branch
-  nearest the current command (yaw and yaw + pi are the same grasp, so the nearer of the two
-  is taken: streaming never asks for a 180-degree wrist flip), and becomes the joint target.
-  A setpoint that fails any check is rejected with the reason and the arm holds still where
-  it is commanded now.
-* ``step`` moves the commanded joints towards the target on a straight line in joint space,
-  no faster than each joint's velocity limit, with a per-joint acceleration limit and a
-  braking profile that stops on the target without overshoot.
+  nearest the previous one (yaw and yaw + pi are the same grasp, so the nearer of the two is
+  taken: streaming never asks for a 180-degree wrist flip), and joins the stream. A setpoint
+  that fails any check is rejected with the reason, the stream is dropped and the arm holds
+  still where it is commanded now.
+* A stream of setpoints is played back the way a UR plays ``servoj`` commands: the joint
+  positions are interpolated between setpoints ``servo_delay_s`` behind their stamps, so a
+  smooth Cartesian trajectory is followed exactly however coarsely it was sampled. Where it
+  would ask a joint for more speed or acceleration than the UR10e has, playback slows down
+  (speed scaling, as on the real robot): the tool stays on its path and arrives late.
+* A setpoint that starts a stream (after a pause, or the first one) is reached point to
+  point: a straight line in joint space, each joint within its velocity and acceleration
+  limits, braking to a stop on the target without overshoot.
 """
 
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass
 
@@ -34,29 +40,42 @@ class SetpointResult:
     reason: str = ""
 
 
-class ArmController:
-    """Streams joint commands towards the latest accepted TCP setpoint."""
+#: Setpoints further apart than this (s) do not belong to one stream.
+STREAM_GAP_S = 0.25
 
-    def __init__(self, q_start, min_tcp_z: float = 0.0, speed_scale: float = 1.0) -> None:
+
+class ArmController:
+    """Streams joint commands along the accepted TCP setpoints."""
+
+    def __init__(self, q_start, min_tcp_z: float = 0.0, speed_scale: float = 1.0,
+                 servo_delay_s: float = 0.04) -> None:
         if not 0.0 < speed_scale <= 1.0:
             raise ValueError(f"speed_scale must be in (0, 1], got {speed_scale}")
         self.v_max = np.asarray(rm.JOINT_VELOCITY_LIMIT) * speed_scale
         self.a_max = np.asarray(rm.JOINT_ACCELERATION_LIMIT)
         self.min_tcp_z = float(min_tcp_z)
+        self.servo_delay_s = float(servo_delay_s)
         self.reset(q_start)
 
     def reset(self, q_start) -> None:
         self.q_cmd = np.array(q_start, dtype=float)
         self.v_cmd = np.zeros(6)
         self.q_target = self.q_cmd.copy()
+        self.now = 0.0
+        self.stream: collections.deque[tuple[float, np.ndarray]] = collections.deque()
+        self.playback: float | None = None  # stream time being played; None: point to point
+        self._stream_start = -math.inf
         self.accepted = 0
         self.rejected = 0
+        self.scaled_steps = 0  # physics steps in which playback was slowed for the joints
         self.last_reason = ""
 
     # --- setpoints ------------------------------------------------------------------------------
-    def set_setpoint(self, position, quat_xyzw, frame_id: str = "world") -> SetpointResult:
-        """Accept a TCP pose as the new target, or reject it and hold still."""
-        result = self._solve(position, quat_xyzw, frame_id)
+    def set_setpoint(self, position, quat_xyzw, frame_id: str = "world",
+                     stamp_s: float | None = None) -> SetpointResult:
+        """Accept a TCP pose stamped ``stamp_s`` (s, the sim's clock; None or implausible:
+        now) into the stream, or reject it and hold still."""
+        result = self._solve(position, quat_xyzw, frame_id, stamp_s)
         if result.accepted:
             self.accepted += 1
         else:
@@ -65,7 +84,8 @@ class ArmController:
             self.hold()
         return result
 
-    def _solve(self, position, quat_xyzw, frame_id: str) -> SetpointResult:
+    def _solve(self, position, quat_xyzw, frame_id: str, stamp_s: float | None = None
+               ) -> SetpointResult:
         if frame_id not in ACCEPTED_FRAMES:
             return SetpointResult(False, f"frame_id '{frame_id}' is not 'world'")
         pos = np.asarray(position, dtype=float)
@@ -80,29 +100,142 @@ class ArmController:
         if pos[2] < self.min_tcp_z:
             return SetpointResult(
                 False, f"TCP z = {pos[2]:.4f} m is below the safety plane {self.min_tcp_z} m")
-        ik = solve_tcp_ik(pose_matrix(pos, quat / norm), self.q_cmd)
+        reference = self.stream[-1][1] if self.stream else self.q_cmd
+        ik = solve_tcp_ik(pose_matrix(pos, quat / norm), reference)
         if not ik.ok:
             return SetpointResult(False, ik.reason)
-        self.q_target = ik.q
+        self._enqueue(self._stamp(stamp_s), ik.q)
         return SetpointResult(True)
 
+    def _stamp(self, stamp_s: float | None) -> float:
+        """The setpoint's time on the stream: its stamp, unless missing or far from now."""
+        if stamp_s is None or not math.isfinite(stamp_s) or abs(stamp_s - self.now) > 5.0:
+            return self.now
+        return float(stamp_s)
+
+    def _enqueue(self, t: float, q: np.ndarray) -> None:
+        if self.stream and t <= self.stream[-1][0]:
+            self.stream[-1] = (self.stream[-1][0], q)  # same instant: the newer pose wins
+            return
+        if not self.stream or t - self.stream[-1][0] > STREAM_GAP_S:
+            # a new stream: reach its first point point-to-point, then play it back
+            self.stream.clear()
+            self.playback = None
+            self.q_target = q
+            self._stream_start = t
+        self.stream.append((t, q))
+
     def hold(self) -> None:
-        """Stop where the arm is commanded now."""
+        """Stop where the arm is commanded now (the stream is dropped)."""
+        self.stream.clear()
+        self.playback = None
         self.q_target = self.q_cmd.copy()
         self.v_cmd = np.zeros(6)
 
     def set_joint_target(self, q) -> None:
-        """Move to a joint configuration (home/park) with the same rate limits."""
+        """Move to a joint configuration (home/park) point to point, with the same limits."""
+        self.stream.clear()
+        self.playback = None
         self.q_target = np.array(q, dtype=float)
 
     # --- stepping -------------------------------------------------------------------------------
-    def step(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Advance the command by ``dt`` seconds; returns (q_cmd, v_cmd)."""
+    def step(self, dt: float, now: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Advance the command by ``dt`` seconds to time ``now`` (s; default: the controller's
+        own clock + dt); returns (q_cmd, v_cmd)."""
+        self.now = self.now + dt if now is None else float(now)
+        if self.playback is None and self.stream and self._at(self.stream[0][1]):
+            self.playback = self.stream[0][0]  # on the stream's first point: play it back
+        if self.playback is not None:
+            self._play(dt)
+        else:  # towards the first point of a stream, or a joint target, point to point
+            self._point_to_point(dt)
+        return self.q_cmd.copy(), self.v_cmd.copy()
+
+    def _at(self, q: np.ndarray) -> bool:
+        return float(np.max(np.abs(q - self.q_cmd))) < 1e-12
+
+    def _play(self, dt: float) -> None:
+        """Follow the stream ``servo_delay_s`` behind its stamps, slowed where the joints
+        cannot keep up (the path is kept, the timing stretched)."""
+        assert self.playback is not None
+        goal = min(self.now - self.servo_delay_s, self.stream[-1][0])
+        advance = max(0.0, min(dt, goal - self.playback))
+        if advance <= 0.0:
+            if self.playback >= self.stream[-1][0]:
+                self._settle(dt)  # played to the newest setpoint: stop on it
+            else:
+                self.v_cmd = np.zeros(6)  # the next setpoint's time has not come yet
+            return
+        scale = 1.0
+        for _ in range(4):  # the stream is piecewise linear: refine the scale on its kinks
+            q = self._sample(self.playback + advance * scale)
+            fraction = self._feasible_scale((q - self.q_cmd) / dt, dt)
+            if fraction >= 1.0 - 1e-9:
+                break
+            scale *= fraction
+        else:
+            q = self._sample(self.playback + advance * scale)
+        if scale < 1.0:
+            self.scaled_steps += 1
+        self.playback += advance * scale
+        self.v_cmd = (q - self.q_cmd) / dt
+        self.q_cmd = q
+        while len(self.stream) > 2 and self.stream[2][0] <= self.playback:
+            self.stream.popleft()  # (one setpoint before the current one stays, for tangents)
+
+    def _settle(self, dt: float) -> None:
+        """Played up to the newest setpoint: stop on it."""
+        self.q_target = self.stream[-1][1]
+        self._point_to_point(dt)
+
+    def _feasible_scale(self, v_full: np.ndarray, dt: float) -> float:
+        """Largest fraction of this step's playback the joints' velocity and acceleration
+        limits allow (velocity taken as proportional to the fraction)."""
+        scale = 1.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            speed = np.abs(v_full)
+            scale = min(scale, float(np.min(np.where(speed > 0, self.v_max / speed, np.inf))))
+            room = self.a_max * dt
+            upper = np.where(v_full > 0, (self.v_cmd + room) / v_full,
+                             np.where(v_full < 0, (self.v_cmd - room) / v_full, np.inf))
+        return max(0.0, min(scale, float(np.min(upper))))
+
+    def _sample(self, t: float) -> np.ndarray:
+        """The stream's joint positions at stream time ``t``: a cubic Hermite curve through
+        the setpoints with finite-difference tangents (Catmull-Rom), so joint velocities
+        change smoothly between setpoints instead of jumping at each one."""
+        stream = self.stream
+        if t <= stream[0][0]:
+            return stream[0][1]
+        if t >= stream[-1][0]:
+            return stream[-1][1]
+        k = next(i for i in range(1, len(stream)) if t <= stream[i][0])
+        (t0, q0), (t1, q1) = stream[k - 1], stream[k]
+        h = t1 - t0
+        m0 = self._tangent(k - 1) * h
+        m1 = self._tangent(k) * h
+        u = (t - t0) / h
+        u2, u3 = u * u, u * u * u
+        return ((2 * u3 - 3 * u2 + 1) * q0 + (u3 - 2 * u2 + u) * m0
+                + (-2 * u3 + 3 * u2) * q1 + (u3 - u2) * m1)
+
+    def _tangent(self, i: int) -> np.ndarray:
+        """dq/dt at setpoint ``i``: central difference; zero at the stream's first point (the
+        arm starts from rest) and at its newest one (where it stops if no more come)."""
+        stream = self.stream
+        if i == len(stream) - 1 or stream[i][0] == self._stream_start:
+            return np.zeros(6)
+        before = stream[max(i - 1, 0)]
+        after = stream[i + 1]
+        return (after[1] - before[1]) / (after[0] - before[0])
+
+    def _point_to_point(self, dt: float) -> None:
+        """One step towards ``q_target``."""
         error = self.q_target - self.q_cmd
         dist = np.abs(error)
         if float(np.max(dist)) < 1e-12:
             self.v_cmd = np.zeros(6)
-            return self.q_cmd.copy(), self.v_cmd.copy()
+            return
         # Per-joint speed we may have now: the limit, what still brakes to a stop on the target
         # (discrete-time bound), what reaches it this step; one common scale keeps the motion
         # on a straight line in joint space, and one common fraction of the velocity change
@@ -123,14 +256,15 @@ class ArmController:
         v = np.where(over, error / dt, v)
         self.q_cmd = self.q_cmd + step
         self.v_cmd = v
-        return self.q_cmd.copy(), self.v_cmd.copy()
 
     def target_tcp(self) -> np.ndarray:
-        return tcp_pose(self.q_target)
+        q = self.stream[-1][1] if self.stream else self.q_target
+        return tcp_pose(q)
 
     @property
     def settled(self) -> bool:
-        return bool(np.max(np.abs(self.q_target - self.q_cmd)) < 1e-9)
+        q = self.stream[-1][1] if self.stream else self.q_target
+        return bool(np.max(np.abs(q - self.q_cmd)) < 1e-9)
 
 
 def clip_gripper_gap(gap: float) -> float:

@@ -1,10 +1,17 @@
 """``densepack-sim``: the simulated UR10e cell as a ROS 2 node.
 
 One thread (``sim-loop``) owns the PyBullet world: it steps physics, runs the arm
-controller, renders, and publishes, paced to ``real_time_factor``. ROS callbacks never touch
-the world; they validate their message and queue a command that the loop applies between
-two physics steps (services wait for the loop's answer). So rendering pauses physics, and
-nothing is half-applied: a malformed message is refused in its callback with a warning.
+controller, renders, and publishes. ROS callbacks never touch the world; they validate their
+message and queue a command that the loop applies between two physics steps (services wait
+for the loop's answer). So rendering pauses physics, and nothing is half-applied: a
+malformed message is refused in its callback with a warning.
+
+Pacing (``Pacer``): while the executor streams setpoints, the sim runs as fast as the
+machine allows but never more than ``lockstep_lead_s`` of simulated time ahead of the
+newest setpoint (lockstep: the executor is never outrun, however loaded the machine);
+when nothing streams (the cell waits for a camera frame to be judged, or for a plan), time
+passes at ``real_time_factor``, as it would for a real robot waiting. Rendering a frame is
+not charged to simulated time (a real camera's exposure is milliseconds).
 """
 
 from __future__ import annotations
@@ -31,7 +38,12 @@ from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError
 from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
-from msgs_py.ros_codecs import block_set_to_markers, executor_status_from_string, ns_to_stamp
+from msgs_py.ros_codecs import (
+    block_set_to_markers,
+    executor_status_from_string,
+    ns_to_stamp,
+    stamp_to_ns,
+)
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
@@ -43,10 +55,13 @@ from nodes.sim.messages import (
     pose_from_msg,
     pose_stamped_msg,
 )
+from nodes.sim.pacing import Pacer
 from nodes.sim.world import SimWorld
 
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 SERVICE_TIMEOUT_S = 60.0
+#: Longest the loop sleeps between two looks at its command queue (s).
+MAX_IDLE_WAIT_S = 0.005
 
 
 class SimNode(Node):
@@ -60,6 +75,8 @@ class SimNode(Node):
                               noise_std=self.camera_config.noise_std)
         self._commands: collections.deque[Callable[[], None]] = collections.deque()
         self._stop = threading.Event()
+        self._wake = threading.Event()  # a command came: the loop may step again
+        self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_lead_s)
         self._blackout_until_ns = 0
         self._make_interfaces()
         self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
@@ -102,27 +119,35 @@ class SimNode(Node):
         self.create_service(Trigger, "/camera/trigger", self._on_trigger, callback_group=group)
 
     # --- callbacks (any executor thread): validate, then queue ----------------------------------
+    def _queue(self, command: Callable[[], None]) -> None:
+        """Hand ``command`` to the sim loop (the only thread that touches the world)."""
+        self._commands.append(command)
+        self._wake.set()
+
     def _on_setpoint(self, msg: PoseStamped) -> None:
         try:
             position, quat, frame = pose_from_msg(msg)
         except (MessageError, ValueError) as err:
             self.get_logger().warning(f"/arm/cartesian_setpoint refused: {err}")
             return
+        stamp = stamp_to_ns(msg.header.stamp) * 1e-9 or None
 
         def apply() -> None:
-            result = self.world.set_setpoint(position, quat, frame)
+            if stamp is not None:
+                self.pacer.on_setpoint(stamp)
+            result = self.world.set_setpoint(position, quat, frame, stamp)
             if not result.accepted:
                 self.get_logger().warning(
                     f"setpoint {[round(v, 4) for v in position]} rejected, arm holds: "
                     f"{result.reason}", throttle_duration_sec=1.0)
-        self._commands.append(apply)
+        self._queue(apply)
 
     def _on_gripper(self, msg: Float64) -> None:
         gap = float(msg.data)
         if not math.isfinite(gap):
             self.get_logger().warning(f"/gripper/command refused: {gap} is not finite")
             return
-        self._commands.append(lambda: self.world.set_gripper(gap))
+        self._queue(lambda: self.world.set_gripper(gap))
 
     def _on_status(self, msg: String) -> None:
         try:
@@ -130,7 +155,7 @@ class SimNode(Node):
         except (MessageError, ValueError) as err:
             self.get_logger().warning(f"/executor/status ignored: {err}")
             return
-        self._commands.append(lambda: self.world.set_manipulated(status.block))
+        self._queue(lambda: self.world.set_manipulated(status.block))
 
     def _on_disturb(self, msg: String) -> None:
         try:
@@ -144,7 +169,7 @@ class SimNode(Node):
                 self.world.disturb(block, dx, dy)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/disturb refused: {err}")
-        self._commands.append(apply)
+        self._queue(apply)
 
     def _on_blackout(self, msg: Float64) -> None:
         """Fault injection: drop every camera frame for the next ``msg.data`` sim seconds."""
@@ -156,12 +181,13 @@ class SimNode(Node):
         def apply() -> None:
             self._blackout_until_ns = self.world.time_ns + round(seconds * 1e9)
             self.get_logger().warning(f"camera frames dropped for {seconds:.1f} s (fault)")
-        self._commands.append(apply)
+        self._queue(apply)
 
     def _on_reset(self, request, response):
         def apply() -> str:
             scene = self._load_scene()
             self.world.reset(scene)
+            self.pacer.restart(self.world.time_s)
             self.scene = scene
             self._publish_events()
             return f"reset: {len(scene.blocks)} blocks at t = {self.world.time_s:.3f} s"
@@ -178,7 +204,7 @@ class SimNode(Node):
                 future.set_result(fn())
             except Exception as err:  # reported to the caller, the loop carries on
                 future.set_exception(err)
-        self._commands.append(apply)
+        self._queue(apply)
         try:
             response.message = future.result(timeout=SERVICE_TIMEOUT_S)
             response.success = True
@@ -198,26 +224,22 @@ class SimNode(Node):
             "camera": (_period_steps(cfg.physics_rate_hz, self.camera_config.rate_hz)
                        if self.camera_config.rate_hz > 0 else 0),
         }
-        wall0, sim0 = time.monotonic(), self.world.time_s
+        self.pacer.restart(self.world.time_s)
         while not self._stop.is_set() and self.context.ok():
             try:
                 while self._commands:
                     self._commands.popleft()()
-                if self.world.time_s < sim0:  # reset: restart pacing
-                    wall0, sim0 = time.monotonic(), self.world.time_s
+                wait = self.pacer.wait_before_step(self.world.time_s, time.monotonic())
+                if wait > 0.0:
+                    self._wake.wait(min(wait, MAX_IDLE_WAIT_S))
+                    self._wake.clear()
+                    continue
                 self.world.step()
                 self._publish_due(every)
             except Exception as err:  # never let the loop die silently
                 if not self.context.ok():
                     break  # shutting down: publishers are gone
                 self.get_logger().error(f"sim loop error: {type(err).__name__}: {err}")
-            if cfg.real_time_factor > 0:
-                ahead = (self.world.time_s - sim0) / cfg.real_time_factor - (
-                    time.monotonic() - wall0)
-                if ahead > 0:
-                    time.sleep(ahead)
-                elif ahead < -1.0:  # fell behind (rendering, load): do not try to catch up
-                    wall0, sim0 = time.monotonic(), self.world.time_s
 
     def _publish_due(self, every: dict[str, int]) -> None:
         k = self.world.step_count
@@ -252,6 +274,7 @@ class SimNode(Node):
         if stamp_ns < self._blackout_until_ns:
             return stamp_ns  # a dropped frame: nothing rendered, nothing published
         rgb = self.world.render()
+        self.pacer.restart(self.world.time_s)  # the render's wall time is not simulated time
         self.pub_image.publish(array_to_image(rgb, stamp_ns))
         self.pub_info.publish(intrinsics_to_camera_info(self.world.camera.intrinsics, stamp_ns))
         return stamp_ns
@@ -284,6 +307,9 @@ SPEC = NodeSpec(
     "blocks, overhead camera, event monitor.",
     configs=SIM_PARAMETERS,
     topics=TOPICS,
+    # Callbacks only validate and queue for the sim loop; a service waits for the loop's
+    # answer, which needs no other callback, so one thread serves them all.
+    threads=1,
 )
 
 

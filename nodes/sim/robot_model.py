@@ -50,8 +50,11 @@ JOINT_LIMIT = 2.0 * math.pi
 JOINT_VELOCITY_LIMIT = tuple(math.radians(v) for v in (120, 120, 180, 180, 180, 180))
 #: Joint sizes 4, 4, 3, 2, 2, 2 (UR joint catalogue): peak torques 330, 330, 150, 56, 56, 56 N m.
 JOINT_TORQUE_LIMIT = (330.0, 330.0, 150.0, 56.0, 56.0, 56.0)
-#: Not in the data sheet; a brisk but gentle acceleration limit for streamed motion (rad/s^2).
-JOINT_ACCELERATION_LIMIT = (4.0, 4.0, 6.0, 8.0, 8.0, 8.0)
+#: UR publishes no joint acceleration limits, only peak torques (the torque limits above bound
+#: what PyBullet's motors reach). These let the executor's Cartesian profiles (1 m/s, 4 m/s^2
+#: peak, cosine ramps) through over the workspace: their 99.5th-percentile demand is about
+#: 10, 8, 13, 9, 0, 18 rad/s^2; where a stream asks for more, the controller slows playback.
+JOINT_ACCELERATION_LIMIT = (12.0, 12.0, 15.0, 20.0, 20.0, 20.0)
 
 # --- Robotiq 2F-85 (data sheet / instruction manual, section "Specifications") ---------------
 GRIP_FORCE_RANGE = (20.0, 235.0)  #: N, data sheet

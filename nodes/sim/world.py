@@ -63,7 +63,7 @@ class SimWorld:
         self._make_table()
         self._make_robot()
         self.controller = ArmController(config.home_joints, config.min_tcp_z,
-                                        config.speed_scale)
+                                        config.speed_scale, config.servo_delay_s)
         self.block_bodies: dict[int, int] = {}
         self.scene = scene
         self.monitor: EventMonitor | None = None
@@ -171,8 +171,10 @@ class SimWorld:
         return round(self.step_count * 1e9 / self.config.physics_rate_hz)
 
     # --- commands -------------------------------------------------------------------------------
-    def set_setpoint(self, position, quat_xyzw, frame_id: str = "world") -> SetpointResult:
-        return self.controller.set_setpoint(position, quat_xyzw, frame_id)
+    def set_setpoint(self, position, quat_xyzw, frame_id: str = "world",
+                     stamp_s: float | None = None) -> SetpointResult:
+        """A TCP setpoint for the arm controller, stamped ``stamp_s`` (simulated s)."""
+        return self.controller.set_setpoint(position, quat_xyzw, frame_id, stamp_s)
 
     def set_gripper(self, gap: float) -> float:
         """Command the gap between the pads (m, clipped to the stroke); returns the clipped gap."""
@@ -208,7 +210,7 @@ class SimWorld:
     def step(self, n: int = 1) -> None:
         c = self.client
         for _ in range(n):
-            q, v = self.controller.step(self.config.dt)
+            q, v = self.controller.step(self.config.dt, self.time_s + self.config.dt)
             c.setJointMotorControlArray(
                 self.robot, self.arm_joints, pybullet.POSITION_CONTROL, targetPositions=q,
                 targetVelocities=v, forces=rm.JOINT_TORQUE_LIMIT)
@@ -246,8 +248,7 @@ class SimWorld:
         for block_id, body in self.block_bodies.items():
             pos, quat = self.client.getBasePositionAndOrientation(body)
             lin, ang = self.client.getBaseVelocity(body)
-            moving[block_id] = (np.asarray(pos), np.asarray(quat),
-                                float(np.linalg.norm(lin)), float(np.linalg.norm(ang)))
+            moving[block_id] = (pos, quat, math.hypot(*lin), math.hypot(*ang))
         self.monitor.update(self.time_s, contacts, moving)
 
     def _classify(self, body: int, link: int) -> tuple[ContactKind, int] | None:

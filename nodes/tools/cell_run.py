@@ -287,6 +287,10 @@ def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[st
         "wall_time_s": result.wall_time_s,
         "unintended_contacts": events.get("unintended_contacts"),
         "blocks_lost": events.get("blocks_lost"),
+        "events": events.get("events", []),
+        "sim_time_by_activity_s": ({k[len("time_"):-2]: v for k, v in status.metrics.items()
+                                    if k.startswith("time_") and k.endswith("_s")}
+                                   if status else {}),
         "final_pos_err_max_m": max(pos) if pos else None,
         "final_pos_err_median_m": sorted(pos)[len(pos) // 2] if pos else None,
         "final_yaw_err_max_deg": max(yaw) if yaw else None,

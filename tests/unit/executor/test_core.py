@@ -43,8 +43,13 @@ def two_action_plan(plan_id="p1", blocks=START):
 class World:
     """Perfect arm tracking; the camera sees what the executor expects, plus any disturbance."""
 
-    def __init__(self, core: ExecutorCore, blocks, camera_delay=0.3, camera_works=True):
+    def __init__(self, core: ExecutorCore, blocks, camera_delay=0.3, camera_works=True,
+                 answers_trigger=False, hides: Callable[[ToolPose], set[int]] | None = None):
         self.core = core
+        self.answers_trigger = answers_trigger  # the camera's answer: "frame taken at ..."
+        self.hides = hides or (lambda tool: set())  # blocks the arm hides from the camera
+        self.trigger_poses: list[ToolPose] = []
+        self.setpoints: list[tuple[float, str, ToolPose]] = []
         self.blocks = {b.id: b.pose for b in blocks}
         self.camera_delay = camera_delay
         self.camera_works = camera_works
@@ -67,6 +72,7 @@ class World:
             out = self.core.tick(t)
             self.logs += out.log
             if out.setpoint is not None:
+                self.setpoints.append((t, self.core.status().state, out.setpoint))
                 if last is not None:
                     self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
                 last = out.setpoint
@@ -82,12 +88,18 @@ class World:
                 done_before = done
                 self.disturb(done)
             if out.trigger_camera and self.camera_works:
-                self.pending.append((t + self.camera_delay, round(t * 1e9)))
-            for due, stamp in list(self.pending):
+                tool = self.core.commanded
+                self.trigger_poses.append(tool)
+                hidden = self.hides(tool)
+                self.pending.append((t + self.camera_delay, round(t * 1e9), frozenset(hidden)))
+                if self.answers_trigger:
+                    self.core.on_frame_taken(round(t * 1e9))
+            for due, stamp, hidden in list(self.pending):
                 if t >= due:
-                    self.pending.remove((due, stamp))
-                    blocks = tuple(BlockPose(i, p.x, p.y, p.theta) for i, p in self.blocks.items())
-                    self.core.on_detection(BlockSet(blocks, stamp))
+                    self.pending.remove((due, stamp, hidden))
+                    blocks = tuple(BlockPose(i, p.x, p.y, p.theta) for i, p in self.blocks.items()
+                                   if i not in hidden)
+                    self.core.on_detection(BlockSet(blocks, stamp, missing=tuple(sorted(hidden))))
             if out.request_replan:  # the planner answers a second later
                 self.replan_requests += 1
                 plans.append((t + 1.0, self.on_replan()))
@@ -100,6 +112,7 @@ class World:
             if not self.states or self.states[-1] != state:
                 self.states.append(state)
             t += DT
+        self.t_end = t - DT
         assert until(), f"timed out in {self.core.phase}: {self.logs[-5:]}"
         state = self.core.status().state
         if self.states[-1] != state:
@@ -352,3 +365,69 @@ def test_a_planner_that_keeps_failing_makes_the_executor_give_up_with_the_reason
     status = core.status()
     assert status.state == "failed"
     assert "gave up after" in status.last_error and "neither grasped" in status.last_error
+
+
+def test_the_arm_moves_on_to_the_next_block_while_the_camera_looks():
+    """After an action the arm stops at the look pose outside the workspace; once the frame is
+    taken it heads for the next block at travel height, and acts only once the world is
+    judged."""
+    core = ExecutorCore(CFG)
+    world = World(core, START, camera_delay=0.8, answers_trigger=True)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    assert world.states == ["observing", "running", "observing", "running", "observing",
+                            "running", "observing", "done"]
+    after_action = world.trigger_poses[1:-1]  # the first and last looks are from the park pose
+    assert after_action and all(p.x == pytest.approx(WS.x_min - CFG.look_offset)
+                                and p.z == pytest.approx(CFG.look_height) for p in after_action)
+    assert world.trigger_poses[-1] == CFG.park
+    first_look = next(k for k, (t, state, p) in enumerate(world.setpoints)
+                      if state == "observing" and p == after_action[0])
+    waiting = [p for _, state, p in world.setpoints[first_look:] if state == "observing"]
+    assert waiting[-1].distance_to(after_action[0]) > 0.1  # it moved on while it waited ...
+    assert all(p.z >= CFG.travel_height - 1e-9 for p in waiting)  # ... above the blocks
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+
+
+def test_blocks_the_arm_hides_at_the_look_pose_are_looked_at_from_the_park_pose():
+    core = ExecutorCore(CFG)
+
+    def hides(tool):  # at the look pose the arm hides block 2
+        return {2} if tool.x == pytest.approx(WS.x_min - CFG.look_offset) else set()
+
+    world = World(core, START, hides=hides)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    assert any("not seen; looking again from the park pose" in line for line in world.logs)
+    assert CFG.park in world.trigger_poses[1:-1]
+    assert core.metrics["actions_executed"] == 3
+
+
+def test_simulated_time_is_charged_to_actions_and_looking():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.DONE)
+    metrics = core.status().metrics
+    assert metrics["time_pick_place_s"] > 0 and metrics["time_push_s"] > 0
+    assert metrics["time_look_s"] > 4 * 0.3  # four looks, each waiting for the camera
+    charged = sum(v for k, v in metrics.items() if k.startswith("time_"))
+    assert charged == pytest.approx(world.t_end, abs=0.1)
+
+
+def test_a_held_up_executor_resumes_its_trajectory_where_it_was():
+    """Ticks that come late (a loaded machine) must not make the setpoints jump along the
+    path: consecutive setpoints stay within two ticks of travel of each other."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.phase is Phase.RUNNING)
+    t, last, biggest = 50.0, core.commanded, 0.0
+    for k in range(400):
+        t += DT if k % 10 else 0.5  # every tenth tick comes half a second late
+        out = core.tick(t)
+        if out.setpoint is not None:
+            biggest = max(biggest, out.setpoint.distance_to(last))
+            last = out.setpoint
+            core.on_tcp(out.setpoint)
+    assert 0.0 < biggest <= 2.0 * DT * CFG.speed * 1.01

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
-from nodes.executor.motion import Limits, LinearMove, ToolPose, minimum_jerk_duration
+from nodes.executor.motion import Limits, LinearMove, ToolPose, move_duration
 from nodes.executor.primitives import (
     action_steps,
     expected_after,
@@ -52,7 +52,7 @@ def speeds(stream):
 
 @given(st.one_of(st.just(0.0), st.floats(1e-4, 1.0)), st.floats(0.05, 1.0), st.floats(0.1, 2.0),
        st.one_of(st.just(0.0), st.floats(1e-3, 3.0)))
-def test_minimum_jerk_move_respects_its_limits(distance, speed, accel, dyaw):
+def test_a_move_respects_its_limits_and_is_as_fast_as_they_allow(distance, speed, accel, dyaw):
     limits = Limits(speed, accel, 1.5, 3.0)
     move = LinearMove.plan(ToolPose(0, 0, 0.2, 0), ToolPose(distance, 0, 0.2, dyaw), limits)
     ts = np.linspace(0, move.duration, 2001)
@@ -62,7 +62,9 @@ def test_minimum_jerk_move_respects_its_limits(distance, speed, accel, dyaw):
         assert np.max(np.abs(np.diff(xs))) / dt <= speed * 1.001
         assert np.max(np.abs(np.diff(xs, 2))) / dt**2 <= accel * 1.01
     assert move.sample(move.duration) == move.end
-    assert move.duration >= minimum_jerk_duration(distance, speed, accel)
+    assert move.duration >= move_duration(distance, speed, accel) - 1e-12
+    if dyaw == 0.0:  # the translation alone sets the profile: no slower than it must be
+        assert move.duration == pytest.approx(move_duration(distance, speed, accel))
 
 
 def pick():
@@ -89,28 +91,38 @@ def test_streams_respect_speed_limits_and_safe_box(action):
 
 
 def test_travel_happens_above_the_blocks():
+    """Travel is at travel height; where the lift blends into the carry, the carried block
+    (hanging grasp_height below the fingertips) still clears 5 cm blocks by a centimetre."""
     stream = play(action_steps(pick(), pick().from_, GEO, CFG))
     travel = [s for _, label, s, _ in stream if label.endswith(("travel above", "carry"))]
-    assert all(s.z >= CFG.travel_height - 1e-9 for s in travel)
+    clearance = min(s.z for s in travel) - CFG.grasp_height - GEO.block_size
+    assert clearance >= 0.01
     assert travel[-1].z == pytest.approx(CFG.travel_height)
+    carry = [s for _, label, s, _ in stream if label.endswith("carry")]
+    assert carry[0].z < CFG.travel_height  # the corner is rounded: no stop at the top
 
 
 def test_pick_place_grips_centred_with_the_right_axis_and_places_at_the_goal():
     action = pick()
     steps = action_steps(action, action.from_, GEO, CFG)
-    descend = next(s for s in steps if isinstance(s, Move) and s.label.endswith("descend"))
+    descend = next(s for s in steps
+                   if isinstance(s, Move) and s.label.endswith("descend (last cm)"))
     assert (descend.target.x, descend.target.y) == (0.55, -0.2)
     assert descend.target.z == CFG.grasp_height
     # grasp 1 closes along the block's local y axis: tool yaw = theta + 90 deg (mod 180)
     assert math.remainder(descend.target.yaw - (0.4 + math.pi / 2), math.pi) == pytest.approx(0)
-    lower = next(s for s in steps if isinstance(s, Move) and s.label.endswith("lower"))
+    lower = next(s for s in steps if isinstance(s, Move) and s.label.endswith("lower (last cm)"))
     assert (lower.target.x, lower.target.y) == (0.70, 0.05)
+    assert lower.target.z == pytest.approx(CFG.grasp_height + CFG.place_drop)
     # the tool turns by exactly the block's change of yaw (mod 180 deg)
     turn = lower.target.yaw - descend.target.yaw
     assert math.remainder(turn - (0.0 - 0.4), math.pi) == pytest.approx(0, abs=1e-12)
     grips = [s for s in steps if isinstance(s, Grip)]
     assert grips[0].opening == pytest.approx(0.0508 + 2 * GEO.approach_clearance)
-    assert grips[1].opening == CFG.grip_command
+    assert [g.opening for g in grips if g.holds == action.block] == [CFG.grip_command]
+    before_descent = steps[steps.index(descend) - 2]  # the fingers are open before going down
+    assert isinstance(before_descent, Grip) and before_descent.wait
+    assert before_descent.opening == grips[0].opening
 
 
 def test_push_streams_along_the_line_through_the_block_centre():
@@ -128,7 +140,7 @@ def test_push_streams_along_the_line_through_the_block_centre():
     start_gap = (centre - [low[0].x, low[0].y]) @ d - GEO.block_size / 2 - front
     assert start_gap == pytest.approx(GEO.push_contact_depth)
     end_face = ([low[-1].x, low[-1].y] - np.array([action.to.x, action.to.y])) @ d + front
-    assert end_face == pytest.approx(-GEO.block_size / 2)
+    assert end_face == pytest.approx(-GEO.block_size / 2, abs=1e-6)
     # the closing axis is perpendicular to the push
     assert abs(math.cos(low[0].yaw - math.atan2(d[1], d[0]))) < 1e-9
 
@@ -210,3 +222,55 @@ def test_a_late_measurement_delays_the_verdict_instead_of_failing():
         assert not runner.update(float(t), old, measured_at=0.0).error
     tick = runner.update(4.0, ToolPose(0.6, 0, 0.2, 0), measured_at=3.9)
     assert tick.done and not tick.error
+
+
+def run_grip(gaps_at, opening, until=2.0):
+    """Play one Grip against a gripper reporting gaps_at(t) every 20 ms; (time done, error)."""
+    runner = StepRunner([Grip(opening, 0.3, "grip")], HOME, 0.002, 1.0)
+    t = 0.0
+    while t < until:
+        tick = runner.update(t, HOME, gaps=[(t, gaps_at(t))])
+        if tick.done or tick.error:
+            return t, tick.error
+        t += 0.02
+    return None, ""
+
+
+def test_a_grip_is_done_when_the_fingers_stop_on_the_block_not_after_a_fixed_wait():
+    def closing(t):  # 68.8 mm closing at 150 mm/s from t = 0.04, stopped by a 50.8 mm block
+        return max(0.0508, 0.0688 - 0.15 * max(0.0, t - 0.04))
+
+    done, error = run_grip(closing, 0.0)
+    assert not error and done == pytest.approx(0.16 + 0.04, abs=0.03)
+
+
+def test_a_grip_that_reaches_its_opening_is_done_at_once_and_one_that_never_moves_later():
+    done, _ = run_grip(lambda t: 0.0688, 0.0688)  # already open
+    assert done == pytest.approx(0.04, abs=0.021)
+    done, _ = run_grip(lambda t: 0.0508, 0.0)  # already stopped on a block: no motion
+    assert 0.29 <= done <= 0.35
+
+
+def test_a_gripper_that_neither_arrives_nor_stops_is_an_error():
+    _, error = run_grip(lambda t: 0.0688 - 0.005 * t, 0.0, until=5.0)  # a slow creep
+    assert "gripper neither reached 0.0 mm nor stopped" in error
+
+
+def test_a_blended_corner_stays_within_its_radius_and_under_the_speed_limit():
+    start, corner, end = ToolPose(0.6, 0.0, 0.012, 0.0), ToolPose(0.6, 0.0, 0.1, 0.0), \
+        ToolPose(0.9, 0.0, 0.1, 0.0)
+    steps = [Move(corner, CFG.vertical_limits, "lift", blend=CFG.blend_radius),
+             Move(end, CFG.travel_limits, "carry")]
+    stream = play(steps, start=start)
+    xs = np.array([s.position for _, _, s, _ in stream])
+    v, _ = speeds(stream)
+    assert v.max() <= CFG.speed * 1.01
+    # the corner is cut, but never by more than the radius: no point below the lift's line
+    # while still near its x, nor further than the radius from the two segments
+    cut = xs[(xs[:, 0] > 0.6 + 1e-6) & (xs[:, 2] < 0.1 - 1e-6)]
+    assert len(cut) > 0
+    assert np.all(0.1 - cut[:, 2] <= CFG.blend_radius + 1e-9)
+    assert np.all(cut[:, 0] - 0.6 <= CFG.blend_radius + 1e-9)
+    no_blend = play([Move(corner, CFG.vertical_limits, "lift"),
+                     Move(end, CFG.travel_limits, "carry")], start=start)
+    assert len(stream) < len(no_blend)  # and it is faster
