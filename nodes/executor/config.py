@@ -87,7 +87,7 @@ class ExecutorConfig:
         cell.ACCEPT_TOLERANCE_YAW_DEG,
         "... and this close in yaw (modulo 90 degrees)", unit="deg")
     observe_every_action: bool = param(
-        True, "park and take a fresh detection after every action (closed loop)")
+        True, "take a fresh detection after every action, from the look pose (closed loop)")
     detection_timeout_s: float = param(
         6.0, "wait this long for a detection after a camera trigger", unit="s")
     detection_retries: int = param(5, "camera triggers before giving up on a detection")

@@ -60,7 +60,7 @@ JOINT_ACCELERATION_LIMIT = (12.0, 12.0, 15.0, 20.0, 20.0, 20.0)
 GRIP_FORCE_RANGE = (20.0, 235.0)  #: N, data sheet
 GRIP_FORCE_DEFAULT = 40.0  #: N, a gentle wood-block grip (well inside the range)
 CLOSING_SPEED_RANGE = (0.020, 0.150)  #: m/s, data sheet
-CLOSING_SPEED_DEFAULT = 0.100  #: m/s of the gap
+CLOSING_SPEED_DEFAULT = 0.150  #: m/s of the gap: the data sheet's fastest setting
 GRIPPER_MASS = 0.925  #: kg, data sheet (with fingers)
 #: Flange to fingertips (coupling 11 mm + 163 mm gripper with fingers closed), m.
 TCP_OFFSET = 0.174

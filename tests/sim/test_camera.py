@@ -86,3 +86,35 @@ def test_camera_config_defaults_frame_the_default_workspace():
     # long image side along world y, image "up" (row 0) towards +x
     assert np.ptp(footprint[:, 1]) > np.ptp(footprint[:, 0])
     assert footprint[0, 0] > footprint[3, 0]
+
+
+@pytest.mark.parametrize("y", [-0.35, 0.0, 0.35])
+def test_the_look_pose_hides_no_block_from_the_camera(y):
+    """The executor's look pose (x_min - look_offset, at look_height): blocks along the
+    workspace's robot-side edge and everywhere else keep their whole tag in view."""
+    from msgs_py import BlockPose, Scene, Workspace
+    from nodes.common.transforms import pose_matrix, tool_down_quaternion
+    from nodes.executor.config import ExecutorConfig
+    from nodes.executor.motion import ToolPose
+    from nodes.executor.primitives import look_pose
+    from nodes.sim.kinematics import solve_tcp_ik
+
+    ws = Workspace(0.45, 0.95, -0.35, 0.35)
+    s = rm.BLOCK_SIZE
+    spots = [(x, yy) for x in (ws.x_min + s / 2 + 0.002, 0.62, 0.80)
+             for yy in np.linspace(ws.y_min + s / 2 + 0.002, ws.y_max - s / 2 - 0.002, 5)]
+    scene = Scene(ws, s, tuple(BlockPose(k, x, yy, 0.0) for k, (x, yy) in enumerate(spots)))
+    world = SimWorld(SimConfig(), CameraConfig().model(), scene)
+    try:
+        cfg = ExecutorConfig()
+        look = look_pose(cfg, ws, ToolPose(0.7, y, cfg.travel_height, 0.0))
+        ik = solve_tcp_ik(pose_matrix([look.x, look.y, look.z], tool_down_quaternion(look.yaw)),
+                          world.controller.q_cmd)
+        assert ik.ok, ik.reason
+        for joint, q in zip(world.arm_joints, ik.q, strict=True):
+            world.client.resetJointState(world.robot, joint, float(q), 0.0)
+        world.step(2)
+        seen = detect(world.render())
+        assert sorted(seen) == list(range(len(spots)))
+    finally:
+        world.close()
