@@ -117,6 +117,19 @@ def _int(where: str, value: Any, lo: int, hi: int) -> int:
     return int(value)
 
 
+def _text(where: str, value: Any) -> str:
+    """A ROS string: UTF-8 and a C string on the wire (a NUL would cut it short)."""
+    if not isinstance(value, str):
+        raise MessageError(where, value, "expected a string")
+    if "\x00" in value:
+        raise MessageError(where, value, "a ROS string cannot hold a NUL character")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise MessageError(where, value, "a ROS string is UTF-8 (no lone surrogates)") from None
+    return value
+
+
 def _block_id(where: str, value: Any) -> int:
     return _int(where, value, 0, INT32_MAX)
 
@@ -203,7 +216,7 @@ def block_pose_from_msg(msg: ifc.BlockPose, where: str = "block") -> BlockPose:
 def block_set_to_msg(block_set: BlockSet) -> ifc.BlockPoseArray:
     msg = ifc.BlockPoseArray()
     msg.header.stamp = stamp_to_msg(block_set.stamp_ns, "stamp_ns")
-    msg.header.frame_id = block_set.frame_id
+    msg.header.frame_id = _text("frame_id", block_set.frame_id)
     msg.block_size = _float("block_size", block_set.block_size)
     msg.blocks = [block_pose_to_msg(b, f"blocks[{k}]") for k, b in enumerate(block_set.blocks)]
     msg.missing_ids = [_block_id(f"missing[{k}]", i) for k, i in enumerate(block_set.missing)]
@@ -425,7 +438,7 @@ def action_from_msg(msg: ifc.PlanAction, where: str = "action") -> Action:
 def params_to_msg(params: dict[str, Any], where: str = "params") -> list[Parameter]:
     """Typed ROS parameters, in the dict's order. Lists must hold one type (or be empty)."""
     check_params(where, params)
-    return [Parameter(name=name, value=_param_value(f"{where}.{name}", value))
+    return [Parameter(name=_text(where, name), value=_param_value(f"{where}.{name}", value))
             for name, value in params.items()]
 
 
@@ -440,7 +453,8 @@ def _param_value(where: str, value: Any) -> ParameterValue:
     if isinstance(value, float):
         return ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
     if isinstance(value, str):
-        return ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value)
+        return ParameterValue(type=ParameterType.PARAMETER_STRING,
+                              string_value=_text(where, value))
     items = list(value)
     if items and isinstance(items[0], bool):
         return ParameterValue(type=ParameterType.PARAMETER_BOOL_ARRAY, bool_array_value=items)
@@ -450,7 +464,8 @@ def _param_value(where: str, value: Any) -> ParameterValue:
                               integer_array_value=ints)
     if items and isinstance(items[0], str):
         return ParameterValue(type=ParameterType.PARAMETER_STRING_ARRAY,
-                              string_array_value=items)
+                              string_array_value=[_text(f"{where}[{k}]", s)
+                                                  for k, s in enumerate(items)])
     return ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY,
                           double_array_value=[float(v) for v in items])
 
@@ -494,7 +509,7 @@ def _param_from(where: str, v: ParameterValue) -> Any:
 
 def plan_to_msg(plan: Plan) -> ifc.Plan:
     _check_version("version", plan.version)
-    msg = ifc.Plan(plan_id=plan.plan_id, planner=plan.planner,
+    msg = ifc.Plan(plan_id=_text("plan_id", plan.plan_id), planner=_text("planner", plan.planner),
                   seed=_int("seed", plan.seed, INT64_MIN, INT64_MAX),
                   planning_time_s=_float("planning_time_s", plan.planning_time_s),
                   cost=_float("cost", plan.cost), params=params_to_msg(plan.params))
@@ -529,7 +544,7 @@ def plan_from_msg(msg: ifc.Plan, where: str = "") -> Plan:
 
 # --- status ------------------------------------------------------------------------------------
 def metrics_to_msg(metrics: dict[str, float], where: str = "metrics") -> list[ifc.Metric]:
-    return [ifc.Metric(name=str(name), value=_float(f"{where}.{name}", value))
+    return [ifc.Metric(name=_text(where, name), value=_float(f"{where}.{name}", value))
             for name, value in metrics.items()]
 
 
@@ -547,12 +562,12 @@ def executor_status_to_msg(status: ExecutorStatus, stamp_ns: int = 0) -> ifc.Exe
     return ifc.ExecutorStatus(
         stamp=stamp_to_msg(stamp_ns),
         state=_code_to("state", EXECUTOR_STATE_CODES, status.state),
-        plan_id=status.plan_id,
+        plan_id=_text("plan_id", status.plan_id),
         action_index=_int("action_index", status.action_index, 0, UINT32_MAX),
         action_total=_int("action_total", status.action_total, 0, UINT32_MAX),
         block=_optional_block_to("block", status.block),
-        last_error=status.last_error,
-        detail=status.detail,
+        last_error=_text("last_error", status.last_error),
+        detail=_text("detail", status.detail),
         metrics=metrics_to_msg(status.metrics),
     )
 
@@ -575,10 +590,10 @@ def planner_status_to_msg(status: PlannerStatus, stamp_ns: int = 0) -> ifc.Plann
     return ifc.PlannerStatus(
         stamp=stamp_to_msg(stamp_ns),
         state=_code_to("state", PLANNER_STATE_CODES, status.state),
-        plan_id=status.plan_id,
+        plan_id=_text("plan_id", status.plan_id),
         n_actions=_int("n_actions", status.n_actions, 0, UINT32_MAX),
         planning_time_s=_float("planning_time_s", status.planning_time_s),
-        last_error=status.last_error,
+        last_error=_text("last_error", status.last_error),
         failed_block=_optional_block_to("failed_block", status.failed_block),
         metrics=metrics_to_msg(status.metrics),
     )
@@ -614,8 +629,8 @@ def plan_reply_to_msg(reply: PlanReply) -> PlanScene.Response:
         success=reply.success,
         error_code=_code_to("error", PLAN_ERROR_CODES, reply.error),
         failed_block=_optional_block_to("failed_block", reply.failed_block),
-        failed_field=reply.failed_field,
-        message=reply.message,
+        failed_field=_text("failed_field", reply.failed_field),
+        message=_text("message", reply.message),
     )
     if reply.plan is not None:
         msg.plan = plan_to_msg(reply.plan)
@@ -655,7 +670,7 @@ def rearrange_feedback_to_msg(feedback: RearrangeFeedback) -> Rearrange.Feedback
         action_total=_int("action_total", feedback.action_total, 0, UINT32_MAX),
         block=_optional_block_to("block", feedback.block),
         corrections=_int("corrections", feedback.corrections, 0, UINT32_MAX),
-        detail=feedback.detail,
+        detail=_text("detail", feedback.detail),
     )
 
 
@@ -689,7 +704,7 @@ def block_error_from_msg(msg: ifc.BlockError, where: str = "block_error") -> Blo
 def rearrange_result_to_msg(result: RearrangeResult) -> Rearrange.Result:
     return Rearrange.Result(
         outcome=_code_to("outcome", OUTCOME_CODES, result.outcome),
-        detail=result.detail,
+        detail=_text("detail", result.detail),
         block_errors=[block_error_to_msg(e, f"block_errors[{k}]")
                       for k, e in enumerate(result.block_errors)],
         metrics=metrics_to_msg(result.metrics),
