@@ -1,7 +1,8 @@
 """densepack's typed message layer: dataclasses, versioned documents and ROS codecs.
 
-Everything here except ``msgs_py.ros_codecs`` is free of ROS imports, so planners and
-tests can use it without a ROS installation.
+Everything here except ``msgs_py.ros_codecs`` and ``msgs_py.interface_codecs`` (neither is
+imported here) is free of ROS imports, so planners and tests can use it without a ROS
+installation.
 """
 
 from msgs_py.actions import Action, PickPlace, Plan, Push, action_from_dict
