@@ -22,8 +22,8 @@ from msgs_py.scene import SCHEMA_VERSION
 EXECUTOR_STATES = (
     "idle",  # no plan yet
     "running",  # streaming an action
-    "observing",  # arm parked, waiting for a fresh detection
-    "correcting",  # fixing a block that drifted off its expected pose
+    "observing",  # arm out of the camera's view, waiting for a fresh detection
+    "recovering",  # handling a fault: setting a block down, bringing one back
     "replanning",  # asked the planner for a new plan from the perceived state
     "stopping",  # lifting and parking after a stop request or an error
     "stopped",  # parked after /executor/stop; /executor/start resumes

@@ -258,7 +258,7 @@ class ExecutorCore:
             block = self.plan.actions[self.index].block
         if self.holding is not None and self.holding >= 0:
             block = self.holding
-        state = "correcting" if self.phase is Phase.REPLANNING else self.phase.value
+        state = self.phase.value
         return ExecutorStatus(
             state=state,
             plan_id=self.plan.plan_id if self.plan else "",

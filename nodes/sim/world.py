@@ -31,6 +31,10 @@ DISTURB_TIMEOUT_S = 10.0
 DISTURB_MAX_FORCE = 5.0
 #: N, strength of the constraint that couples the fingers (well above any grip force).
 FINGER_COUPLING_FORCE = 500.0
+#: The gripper reports "at the requested position" within this of it (m), and "moving" while
+#: the fingers' combined speed exceeds this (m/s).
+GRIPPER_AT_POSITION = 0.0005
+GRIPPER_MOVING_SPEED = 0.002
 
 
 @dataclass
@@ -272,6 +276,25 @@ class SimWorld:
         """Measured gap between the pads (m)."""
         states = self.client.getJointStates(self.robot, self.finger_joints)
         return float(states[0][0] + states[1][0])
+
+    def gripper_status(self) -> tuple[float, float, int]:
+        """What a 2F-85 driver reports: (measured gap m, requested gap m, object detection).
+
+        Object detection follows the 2F-85's ``gOBJ``: 0 fingers moving, 1 stopped on an
+        object while opening, 2 stopped on an object while closing, 3 at the requested
+        position (no object).
+        """
+        states = self.client.getJointStates(self.robot, self.finger_joints)
+        gap = float(states[0][0] + states[1][0])
+        speed = abs(float(states[0][1])) + abs(float(states[1][1]))
+        requested = self.gripper_gap
+        if abs(gap - requested) <= GRIPPER_AT_POSITION:
+            status = 3
+        elif speed > GRIPPER_MOVING_SPEED:
+            status = 0
+        else:
+            status = 2 if gap > requested else 1
+        return gap, requested, status
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Measured TCP (position, quaternion xyzw) in world."""

@@ -154,7 +154,7 @@ def test_drift_beyond_tolerance_asks_for_a_replan_and_resumes_with_the_new_plan(
     core.on_plan(two_action_plan())
     world.run(lambda: core.phase is Phase.DONE)
     assert world.replan_requests == 1
-    assert "correcting" in world.states
+    assert "replanning" in world.states
     assert core.status().metrics["replans"] == 1
     assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
 
