@@ -1,22 +1,32 @@
 """The executor's closed loop, free of ROS: plan in, setpoints and requests out.
 
-The node feeds ``ExecutorCore`` with plans, detections, the measured TCP and start/stop
-requests, and calls ``tick(now)`` at the streaming rate; the core answers with the
-setpoint and gripper command to publish and whether to trigger the camera or ask the
-planner for a new plan. The loop, per the paper's cell plus perception feedback:
+The node feeds ``ExecutorCore`` with plans, detections, the measured TCP, the gripper's
+reports and start/stop requests, and calls ``tick(now)`` at the streaming rate; the core
+answers with the setpoint and gripper command to publish and whether to trigger the camera
+or ask the planner for a new plan. The loop, per the paper's cell plus perception feedback:
 
-    observe (arm parked) -> check the world is as expected -> run action k -> observe -> ...
+    observe -> check the world is as expected -> run action k -> observe -> ...
 
-Before the first action the arm parks out of the camera's view; after each action it stops
-at a look pose just outside the workspace (where it hides no block), and the core waits for
-a detection taken after that moment. Once the camera has taken the frame the arm already
-moves on, at travel height, towards the next action's block; the action itself starts when
-the detection is judged. If every block stands within tolerance of where it should, the
-next action starts from the *perceived* poses; if not, the core asks the planner to replan
-from the perceived state (at most ``max_replans`` times). After the last action the arm parks
-and every block is verified against the goal. Errors (a target outside the safe box, a TCP
-that does not converge, a plan naming blocks nobody has seen) stop the arm safely: lift,
-park, and report the reason.
+Every state the executor can be in, and every change between them with its reason, is in
+``TRANSITIONS`` (the one table; docs/nodes.md prints it); ``state`` is also what
+``/executor/status`` publishes:
+
+* idle: parked; without a plan it looks now and then, for the planner.
+* observing: out of the camera's view (the look pose after an action, else the park pose)
+  while a frame is taken and judged; may already move on above the next block.
+* running: streams action k; the grasp is supervised.
+* recovering: sets a block down, lets go, or brings a block back into the workspace.
+* replanning: at rest, waits for the planner.
+* stopping: sets down what the fingers hold, parks.
+* stopped: parked, fingers empty, until a start. done, failed: parked until a new plan.
+
+Grasp supervision (``GraspSupervisor``): after a grip a block of the expected width must
+be held, while lifting, carrying and lowering it must stay held, after a release the fingers
+must be empty, and nobody else may command the gripper. A fault stops the motion at once
+(braking along the path), lets go of anything in the fingers and looks again; the run then
+resumes from what the camera sees: the same action again, a new plan, or a dropped block
+brought back into the workspace. A block seen nowhere stops the run with its name; the arm
+parks with empty fingers and every block left where it stands.
 """
 
 from __future__ import annotations
@@ -25,7 +35,7 @@ import enum
 import math
 from dataclasses import dataclass, field
 
-from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
+from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D, Workspace
 from msgs_py.cell import GripperGeometry, table_margin_of
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.ledger import TimeLedger
@@ -37,23 +47,109 @@ from nodes.executor.primitives import (
     look_steps,
     park_steps,
 )
-from nodes.executor.recovery import free_spot, holds_block
-from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
+from nodes.executor.recovery import (
+    bring_in_steps,
+    free_grasp,
+    free_spot,
+    holds_block,
+    let_go_steps,
+    outside,
+    set_down_steps,
+)
+from nodes.executor.steps import Grip, Rise, Step, StepRunner
+from nodes.executor.supervision import (
+    Expect,
+    FaultKind,
+    GraspFault,
+    GraspSupervisor,
+    GripperReading,
+)
 from nodes.executor.verify import Deviation, deviations, goal_errors
 
 #: A tick advances the running script by at most this many tick periods (see ``_run``).
 MAX_TICKS_PER_STEP = 2.0
+#: Deceleration when a fault stops the arm mid-move (m/s^2).
+BRAKE_DECEL = 5.0
+#: A failed grasp is tried again from the newly perceived pose this often, then replanned.
+GRASP_RETRIES = 2
 
 
-class Phase(enum.Enum):
+class State(enum.Enum):
+    """What the executor is doing; the value is the word ``/executor/status`` publishes."""
+
     IDLE = "idle"
-    RUNNING = "running"
     OBSERVING = "observing"
+    RUNNING = "running"
+    RECOVERING = "recovering"
     REPLANNING = "replanning"
     STOPPING = "stopping"
     STOPPED = "stopped"
     DONE = "done"
     FAILED = "failed"
+
+
+#: Every state change, and why it happens (the executor refuses any other).
+TRANSITIONS: dict[State, dict[State, str]] = {
+    State.IDLE: {
+        State.OBSERVING: "a plan and a start: look before acting",
+        State.RECOVERING: "the fingers hold a block at start-up: set it down",
+        State.STOPPED: "stop requested",
+    },
+    State.OBSERVING: {
+        State.OBSERVING: "look again (from the park pose)",
+        State.RUNNING: "the world is as expected: the next action",
+        State.RECOVERING: "a block outside the workspace, or one in the fingers: deal with it",
+        State.REPLANNING: "the world drifted, or a plan must be checked against it",
+        State.DONE: "every block verified at its goal",
+        State.IDLE: "the plan is gone",
+        State.STOPPING: "a block is gone, or stop requested",
+    },
+    State.RUNNING: {
+        State.OBSERVING: "action done: look",
+        State.RECOVERING: "a grasp fault: stop, let go, look",
+        State.STOPPING: "an error, or stop requested",
+    },
+    State.RECOVERING: {
+        State.OBSERVING: "recovery done: look again",
+        State.RECOVERING: "a fault while recovering",
+        State.STOPPING: "no way to recover, or stop requested",
+    },
+    State.REPLANNING: {
+        State.RUNNING: "a plan that starts from the perceived world",
+        State.REPLANNING: "that plan does not fit, or none came",
+        State.DONE: "no correction possible, residual within the acceptance tolerance",
+        State.STOPPING: "too many replans, or stop requested",
+    },
+    State.STOPPING: {
+        State.STOPPED: "parked after a stop request",
+        State.FAILED: "parked after an error",
+        State.STOPPING: "set down what the fingers hold first",
+    },
+    State.STOPPED: {State.IDLE: "start requested"},
+    State.DONE: {State.IDLE: "a new plan"},
+    State.FAILED: {State.IDLE: "a new plan"},
+}
+
+
+class After(enum.Enum):
+    """What a motion script leads to when it has run to its end."""
+
+    LOOK = "look"  #: the arm is out of view: take a frame
+    ACTION_DONE = "action done"  #: the action ran (and the arm is at the look pose, or not)
+    HOVERING = "hovering"  #: above the next block while the camera's frame is judged
+    IDLE_PARKED = "idle parked"
+    RECOVERED = "recovered"  #: a recovery ran: look again
+    STOPPED = "stopped"  #: parked after a stop or an error
+
+
+class Purpose(enum.Enum):
+    """Why a frame is taken: what the detection is judged against."""
+
+    START = "start"  #: before the first action: the plan must start from the world
+    AFTER_ACTION = "after action"  #: every block where it should be after the action
+    RESUME = "resume"  #: after a stop: as before
+    RECOVERY = "recovery"  #: after a fault: where are the blocks now?
+    GOAL = "goal"  #: after the last action: every block at its goal
 
 
 @dataclass
@@ -64,40 +160,52 @@ class Outputs:
     gripper: float | None = None
     trigger_camera: bool = False
     request_replan: bool = False
+    placement: tuple[int, Pose2D] | None = None  #: a block the arm just set down, and where
     log: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Held:
+    """A block in the fingers: which (None: not known) and where it was picked up."""
+
+    block: int | None
+    picked_from: Pose2D | None = None
 
 
 class ExecutorCore:
     def __init__(self, cfg: ExecutorConfig) -> None:
         self.cfg = cfg
-        self.phase = Phase.IDLE
+        self.state = State.IDLE
         self.plan: Plan | None = None
         self.geo = GripperGeometry()
+        self.supervisor = GraspSupervisor(self.geo.block_size)
         self.index = 0  # next action to run (0-based)
         self.tcp: ToolPose | None = None
+        self.tcp_stamp: float | None = None
         self.perceived: dict[int, Pose2D] = {}
         self.expected: dict[int, Pose2D] = {}
-        self.holding: int | None = None
-        self._held_from: Pose2D | None = None  # where the held block was picked up
+        self.held: Held | None = None
+        self._picked_from: Pose2D | None = None  # where the current action's block stood
         self.commanded: ToolPose | None = None  # last setpoint streamed
         self.finger_gap: float | None = None
         self._new_gaps: list[tuple[float, float]] = []  # (time, gap) since the last tick
-        self.tcp_stamp: float | None = None
-        self._recovering = False  # holding an unknown block at start-up
+        self._new_readings: list[GripperReading] = []
         self._checked_fingers = False
         self.last_error = ""
         self.detail = ""
         self.runner: StepRunner | None = None
-        self._after_runner: str = ""  # what to do when the runner finishes
-        self._observe_purpose = ""
+        self._after = After.LOOK
+        self._purpose = Purpose.START
+        self._look_after_recovery = Purpose.RECOVERY  # what the look after a recovery judges
         self._trigger_ns: int | None = None
+        self._trigger_time = 0.0
+        self._triggers = 0
         self._frame_taken = False  # the camera answered the trigger: the arm may move on
         self._pending_detection: BlockSet | None = None  # arrived while the arm was moving
         self._script_lag = 0.0  # how far the runner's script time trails the clock (s)
         self._last_run: float | None = None
-        self._trigger_time = 0.0
-        self._triggers = 0
         self._replans = 0
+        self._grasp_tries = 0
         self._replan_sent_at: float | None = None
         self._rejected_plans: set[str] = set()
         self._pending_plan: Plan | None = None
@@ -105,11 +213,12 @@ class ExecutorCore:
         self._start_requested = cfg.auto_start
         self.metrics: dict[str, float] = {
             "actions_executed": 0.0, "replans": 0.0, "observations": 0.0,
-            "execution_time_s": 0.0,
+            "execution_time_s": 0.0, "faults": 0.0,
         }
         self.ledger = TimeLedger()
         self._started_at: float | None = None
         self._last_idle_look: float | None = None
+        self._now = 0.0
         self._out = Outputs()
         self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
         self._want_trigger = False
@@ -122,21 +231,27 @@ class ExecutorCore:
         self.tcp_stamp = stamp_s
 
     def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
-        """The measured gap between the pads (m), taken at ``stamp_s`` (ROS time, s): tells
-        whether the fingers hold a block, and when a gripper command is done."""
+        """The measured gap between the pads (m), taken at ``stamp_s`` (ROS time, s): when a
+        gripper command is done (with no gripper status, also whether a block is held)."""
         self.finger_gap = gap
         if stamp_s is not None:
             self._new_gaps.append((stamp_s, gap))
 
+    def on_gripper(self, reading: GripperReading) -> None:
+        """A gripper status (the 2F-85 driver's): position, request, object detection."""
+        self.finger_gap = reading.gap
+        self._new_gaps.append((reading.stamp, reading.gap))
+        self._new_readings.append(reading)
+
     def on_frame_taken(self, stamp_ns: int) -> None:
         """The camera answered our trigger: the frame was taken at ``stamp_ns``."""
-        if self.phase is Phase.OBSERVING and self._trigger_ns is not None:
+        if self.state is State.OBSERVING and self._trigger_ns is not None:
             self._trigger_ns = max(self._trigger_ns, stamp_ns)
             self._frame_taken = True
 
     def on_detection(self, detection: BlockSet) -> None:
         """Take a detection; only one taken after our camera trigger counts as an observation."""
-        if self.phase is not Phase.OBSERVING or self._trigger_ns is None:
+        if self.state is not State.OBSERVING or self._trigger_ns is None:
             return
         if detection.stamp_ns < self._trigger_ns:
             return
@@ -147,17 +262,13 @@ class ExecutorCore:
             return
         self._take_detection(detection)
 
-    def _take_detection(self, detection: BlockSet) -> None:
-        self.perceived = {b.id: b.pose for b in detection.blocks}
-        self._judge_observation(detection)
-
     def on_plan(self, plan: Plan) -> None:
         if self.plan is not None and plan.plan_id and plan.plan_id == self.plan.plan_id:
             return  # the same latched plan again
         if plan.plan_id in self._rejected_plans:
             return
-        if self.phase in (Phase.RUNNING, Phase.OBSERVING, Phase.STOPPING):
-            self._pending_plan = plan  # finish the current action first
+        if self.state in (State.RUNNING, State.OBSERVING, State.RECOVERING, State.STOPPING):
+            self._pending_plan = plan  # finish what the arm is doing first
             return
         self._adopt(plan)
 
@@ -165,7 +276,7 @@ class ExecutorCore:
         """The planner found no plan for our replan request: what is left may be beyond its
         reach (a block a degree off in the middle of a dense grid can be neither grasped nor
         pushed), and blocks within the acceptance tolerance of their goal then end the run."""
-        if self.phase is not Phase.REPLANNING:
+        if self.state is not State.REPLANNING:
             return
         if not self._accept_residual(f"the planner found no correction ({reason})"):
             self._replan(f"the planner found no plan: {reason}")
@@ -173,20 +284,17 @@ class ExecutorCore:
     def request_start(self) -> str:
         self._start_requested = True
         self._stop_requested = False
-        if self.phase is Phase.STOPPED:
-            self.phase = Phase.IDLE
-            if self.holding is not None and self._held_from is not None:
-                self._put_back_held_block()
-                return f"putting block {self.holding} back, then resuming"
+        if self.state is State.STOPPED:
+            self._enter(State.IDLE)
         return "starting" if self.plan is not None else "waiting for a plan"
 
     def request_stop(self) -> str:
         self._stop_requested = True
         self._start_requested = False
-        if self.phase in (Phase.RUNNING, Phase.OBSERVING, Phase.REPLANNING):
+        if self.state in (State.RUNNING, State.OBSERVING, State.REPLANNING, State.RECOVERING):
             self._stop_safely("stop requested", failed=False)
-        elif self.phase is Phase.IDLE:
-            self.phase = Phase.STOPPED
+        elif self.state is State.IDLE:
+            self._enter(State.STOPPED)
         return "stopping"
 
     # --- the loop -------------------------------------------------------------------------------
@@ -195,26 +303,22 @@ class ExecutorCore:
         self._now = now
         if self.tcp is None:
             return self._out  # the arm has not reported yet: nothing safe to stream
-        if self._started_at is None and self.phase is Phase.RUNNING:
+        if self._started_at is None and self.state is State.RUNNING:
             self._started_at = now
-        if (self.phase is Phase.IDLE and self.runner is None and self.plan is not None
+        if (self.state is State.IDLE and self.runner is None and self.plan is not None
                 and self._start_requested):
-            if not self._checked_fingers:
-                self._checked_fingers = True
-                if self.holding is None and holds_block(self.finger_gap, self.geo.block_size):
-                    self._log(f"the fingers hold something ({self.finger_gap * 1e3:.1f} mm "
-                              "apart): parking with it, then looking which block it is")
-                    self._recovering = True
-                    self.holding = -1
-            self._observe("resume" if self.index > 0 else "verify_start")
-        if self.phase is Phase.IDLE and self.plan is None:
+            self._begin_run()
+        if self.state is State.IDLE and self.plan is None:
             self._look_while_idle(now)
         if self.runner is not None:
             self._run(now)
-        elif self.phase is Phase.OBSERVING:
+        elif self.state is State.OBSERVING:
             self._wait_for_detection(now)
-        elif self.phase is Phase.REPLANNING:
+        elif self.state is State.REPLANNING:
             self._wait_for_plan(now)
+        if self._new_readings:  # judged while a script runs; otherwise only the latest counts
+            self.supervisor.last = self._new_readings[-1]
+            self._new_readings.clear()
         if self._started_at is not None:
             self.metrics["execution_time_s"] = now - self._started_at
         self.ledger.charge(now, self._activity())
@@ -225,16 +329,34 @@ class ExecutorCore:
         self._out.request_replan, self._want_replan = self._want_replan, False
         return self._out
 
+    def _begin_run(self) -> None:
+        """Start (or resume) with a plan: first make sure the fingers are empty."""
+        if not self._checked_fingers:
+            self._checked_fingers = True
+            if self.held is None and self._fingers_hold_something():
+                self._log(f"the fingers hold something ({self.finger_gap * 1e3:.1f} mm apart):"
+                          " parking with it, then looking which block it is")
+                self.held = Held(None)
+        self._observe(Purpose.RESUME if self.index > 0 else Purpose.START)
+
+    def _fingers_hold_something(self) -> bool:
+        if self.supervisor.last is not None:
+            return self.supervisor.holds_something()
+        return holds_block(self.finger_gap, self.geo.block_size)
+
     def _activity(self) -> str:
         """What the time since the last tick went to (for the per-kind time metrics)."""
-        if self.phase is Phase.REPLANNING:
+        if self.state is State.REPLANNING:
             return "replan"
+        if self.state is State.RECOVERING:
+            return "recover"
         label = self.runner.current_label if self.runner is not None else ""
-        if label.startswith("block ") and self.plan is not None:
+        if label.startswith("block ") and self.plan is not None and self.state in (
+                State.RUNNING, State.OBSERVING):
             kinds = {a.block: a.type for a in self.plan.actions[self.index:self.index + 1]}
             block = int(label.split()[1].rstrip(":"))
             return kinds.get(block, "other")
-        if self.phase is Phase.OBSERVING or label.startswith(("look", "park")):
+        if self.state is State.OBSERVING or label.startswith(("look", "park")):
             return "look"
         return "other"
 
@@ -244,25 +366,33 @@ class ExecutorCore:
         if period <= 0 or self.runner is not None:
             return
         if self.commanded is None or self.commanded.distance_to(self.cfg.park) > 1e-6:
-            self._start_runner(park_steps(self.cfg), then="idle_parked")
+            self._start_runner(park_steps(self.cfg), After.IDLE_PARKED)
             return
         if self._last_idle_look is None or now - self._last_idle_look >= period:
             self._last_idle_look = now
             self._want_trigger = True
 
+    def _enter(self, state: State) -> None:
+        """Change state, as ``TRANSITIONS`` allows (anything else is a bug: stop safely)."""
+        if state is not self.state and state not in TRANSITIONS[self.state]:
+            reason = f"internal error: no transition from {self.state.value} to {state.value}"
+            self._log(reason)
+            self.last_error = reason
+            state = State.STOPPING if self.state is not State.STOPPING else State.FAILED
+        self.state = state
+
     # --- status ---------------------------------------------------------------------------------
     def status(self) -> ExecutorStatus:
         total = len(self.plan.actions) if self.plan else 0
         block = None
-        if self.plan and self.phase is Phase.RUNNING and self.index < total:
+        if self.plan and self.state is State.RUNNING and self.index < total:
             block = self.plan.actions[self.index].block
-        if self.holding is not None and self.holding >= 0:
-            block = self.holding
-        state = self.phase.value
+        if self.held is not None and self.held.block is not None:
+            block = self.held.block
         return ExecutorStatus(
-            state=state,
+            state=self.state.value,
             plan_id=self.plan.plan_id if self.plan else "",
-            action_index=min(self.index + (1 if self.phase is Phase.RUNNING else 0), total),
+            action_index=min(self.index + (1 if self.state is State.RUNNING else 0), total),
             action_total=total,
             block=block,
             last_error=self.last_error,
@@ -270,19 +400,21 @@ class ExecutorCore:
             metrics=dict(self.metrics, replans=float(self._replans), **self.ledger.metrics()),
         )
 
-    # --- internals: plans -------------------------------------------------------------------------
+    # --- plans ----------------------------------------------------------------------------------
     def _adopt(self, plan: Plan) -> None:
         self.plan = plan
         self.geo = GripperGeometry.from_params(plan.params)
+        self.supervisor.block_size = self.geo.block_size
         self.index = 0
+        self._grasp_tries = 0
         self.last_error = ""
         self._pending_plan = None
         self.detail = f"plan {plan.plan_id or '?'}: {len(plan.actions)} actions"
         self._log(self.detail)
-        if self.phase in (Phase.REPLANNING,):
+        if self.state is State.REPLANNING:
             self._check_plan_start()
-        elif self.phase in (Phase.DONE, Phase.FAILED):
-            self.phase = Phase.IDLE
+        elif self.state in (State.DONE, State.FAILED):
+            self._enter(State.IDLE)
             self._replans = 0
 
     def _check_plan_start(self) -> None:
@@ -291,7 +423,8 @@ class ExecutorCore:
         assert plan is not None
         unknown = sorted({a.block for a in plan.actions} - set(self.perceived))
         if unknown and self.perceived:
-            self._reject(plan, f"plan names block(s) {unknown} the camera has not seen")
+            self._rejected_plans.add(plan.plan_id)
+            self._fail(f"plan names block(s) {unknown} the camera has not seen")
             return
         start = {b.id: b.pose for b in plan.scene.blocks} if plan.scene else dict(self.perceived)
         off, missing = deviations(self.perceived, start, self.cfg.pos_tolerance,
@@ -309,25 +442,25 @@ class ExecutorCore:
         else:
             self._verify_goal()
 
-    def _reject(self, plan: Plan, reason: str) -> None:
-        self._rejected_plans.add(plan.plan_id)
-        self._fail(reason)
-
-    # --- internals: observing ---------------------------------------------------------------------
-    def _observe(self, purpose: str) -> None:
-        """Park out of the camera's view, then take a frame (start, resume, the goal)."""
+    # --- observing ------------------------------------------------------------------------------
+    def _observe(self, purpose: Purpose, near: bool = False) -> None:
+        """Get out of the camera's view, then take a frame: from the park pose, or with
+        ``near`` from the look pose beside the workspace (where the arm hides no block)."""
         self._begin_observing(purpose)
-        self._start_runner(park_steps(self.cfg), then="trigger")
+        steps = park_steps(self.cfg)
+        if near and self.plan is not None and self.plan.scene is not None:
+            steps = look_steps(self.cfg, self.plan.scene.workspace, self.commanded or self.tcp)
+        self._start_runner(steps, After.LOOK)
 
     def _look_again_from_park(self) -> None:
         """Another frame, from the park pose (where the arm hides nothing), counting tries."""
         triggers = self._triggers
-        self._observe(self._observe_purpose)
+        self._observe(self._purpose)
         self._triggers = triggers
 
-    def _begin_observing(self, purpose: str) -> None:
-        self.phase = Phase.OBSERVING
-        self._observe_purpose = purpose
+    def _begin_observing(self, purpose: Purpose) -> None:
+        self._enter(State.OBSERVING)
+        self._purpose = purpose
         self._triggers = 0
         self._trigger_ns = None
         self._pending_detection = None
@@ -345,12 +478,13 @@ class ExecutorCore:
         self._frame_taken = False
         plan = self.plan
         if (not self.cfg.look_while_moving or plan is None or self.runner is not None
-                or self._observe_purpose != "after_action" or self.index >= len(plan.actions)):
+                or self._purpose is not Purpose.AFTER_ACTION
+                or self.index >= len(plan.actions)):
             return
         action = plan.actions[self.index]
         start = self.expected.get(action.block)
         if start is not None:
-            self._start_runner(hover_steps(action, start, self.geo, self.cfg), then="hovering")
+            self._start_runner(hover_steps(action, start, self.geo, self.cfg), After.HOVERING)
 
     def _wait_for_detection(self, now: float) -> None:
         if self._frame_taken:
@@ -367,19 +501,26 @@ class ExecutorCore:
                   "looking again from the park pose")
         self._look_again_from_park()
 
-    def _judge_observation(self, detection: BlockSet) -> None:
-        purpose = self._observe_purpose
+    def _take_detection(self, detection: BlockSet) -> None:
+        self.perceived = {b.id: b.pose for b in detection.blocks}
         plan = self.plan
         if plan is None:
-            self.phase = Phase.IDLE
+            self._enter(State.IDLE)
             return
-        if self._recovering:
+        if self.held is not None:  # something in the fingers: put it down first
             self._recover_held_block()
             return
-        if purpose == "verify_start":
+        if plan.scene is not None and self._bring_in_outside_block(plan):
+            return
+        if self._purpose is Purpose.START:
             self._check_plan_start()
             return
-        # after an action, or resuming after a stop: the world must be as expected
+        self._judge_world()
+
+    def _judge_world(self) -> None:
+        """After an action, a recovery or a stop: the world must be as expected."""
+        plan = self.plan
+        assert plan is not None
         off, missing = deviations(self.perceived, self.expected, self.cfg.pos_tolerance,
                                   self.cfg.yaw_tolerance)
         if missing:
@@ -387,11 +528,18 @@ class ExecutorCore:
                 self._log(f"blocks {missing} not seen; looking again from the park pose")
                 self._look_again_from_park()
                 return
-            self._fail(f"blocks {missing} are no longer seen by the camera")
+            self._fail(f"block(s) {missing} are no longer seen by the camera (taken away?); "
+                       "every other block is left as it stands")
             return
-        if off:
-            why = "; ".join(d.describe() for d in off[:3])
-            self._replan(f"drift after action {self.index}: {why}")
+        newcomers = sorted(set(self.perceived) - set(self.expected))
+        if not (off or newcomers) and self._grasp_tries > GRASP_RETRIES:
+            self._replan(f"the grasp of block {plan.actions[self.index].block} missed "
+                         f"{self._grasp_tries} times")
+            return
+        if off or newcomers:
+            why = "; ".join([d.describe() for d in off[:3]]
+                            + [f"block {b} appeared" for b in newcomers[:3]])
+            self._replan(f"after action {self.index}: {why}")
             return
         self.expected = dict(self.perceived)
         if self._pending_plan is not None:
@@ -402,8 +550,8 @@ class ExecutorCore:
         if self.index < len(plan.actions):
             self._next_action()
             return
-        if purpose != "goal":
-            self._observe("goal")  # the last look is from the park pose: the run ends there
+        if self._purpose is not Purpose.GOAL:
+            self._observe(Purpose.GOAL)  # the last look is from the park pose: the run ends there
             return
         self._verify_goal()
 
@@ -449,17 +597,17 @@ class ExecutorCore:
         return True
 
     def _finish(self, detail: str) -> None:
-        self.phase = Phase.DONE
+        self._enter(State.DONE)
         self.detail = detail
         self._log(detail)
 
-    # --- internals: replanning --------------------------------------------------------------------
+    # --- replanning -----------------------------------------------------------------------------
     def _replan(self, reason: str) -> None:
         if self._replans >= self.cfg.max_replans:
             self._fail(f"gave up after {self._replans} replans; last: {reason}")
             return
         self._replans += 1
-        self.phase = Phase.REPLANNING
+        self._enter(State.REPLANNING)
         self.detail = reason
         self._log(f"replanning ({self._replans}/{self.cfg.max_replans}): {reason}")
         if self.plan is not None and self.plan.plan_id:
@@ -480,7 +628,7 @@ class ExecutorCore:
             self._replan_sent_at = now
             self._want_replan = True
 
-    # --- internals: acting ------------------------------------------------------------------------
+    # --- acting ---------------------------------------------------------------------------------
     def _next_action(self) -> None:
         plan = self.plan
         assert plan is not None
@@ -489,18 +637,18 @@ class ExecutorCore:
         if start is None:
             self._fail(f"action {self.index + 1} moves block {action.block}, which is not seen")
             return
-        self.phase = Phase.RUNNING
+        self._enter(State.RUNNING)
         self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
                       f"block {action.block}"
         self._log(self.detail)
         steps = action_steps(action, start, self.geo, self.cfg)
-        self._held_from = start
+        self._picked_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
         if self._looks_after(self.index) and plan.scene is not None:
             end = self.expected[action.block]
             steps += look_steps(self.cfg, plan.scene.workspace,
                                 ToolPose(end.x, end.y, self.cfg.travel_height, 0.0))
-        self._start_runner(steps, then="action_done")
+        self._start_runner(steps, After.ACTION_DONE)
 
     def _looks_after(self, index: int) -> bool:
         """Whether the camera looks from the look pose after action ``index`` (the last one is
@@ -508,62 +656,160 @@ class ExecutorCore:
         assert self.plan is not None
         return self.cfg.observe_every_action and index + 1 < len(self.plan.actions)
 
-    def _put_back_held_block(self) -> None:
-        """After a stop while carrying a block: set it down where it was picked up (known free)."""
-        assert self.holding is not None and self._held_from is not None
-        self._set_down_held_block(self.holding, self._held_from)
+    # --- grasp supervision ------------------------------------------------------------------------
+    def _supervise(self, runner: StepRunner, gripper: float | None) -> GraspFault | None:
+        """Tell the supervisor what the script did to the fingers, judge their reports. With
+        no gripper status (a gripper that reports only its finger joints), a grip is taken to
+        hold its block and a release to let go."""
+        fault = None
+        for reading in self._new_readings:  # taken before this tick's command
+            if fault is None and (self.supervisor.expect is not Expect.NOTHING
+                                  or self.supervisor.commanded is not None):
+                fault = self.supervisor.on_reading(reading)
+            else:
+                self.supervisor.last = reading
+        self._new_readings.clear()
+        last = self.supervisor.last
+        for step in runner.finished_steps:
+            if not isinstance(step, Grip) or not step.wait:
+                continue
+            if step.holds is not None:
+                fault = fault or (None if last is None else self.supervisor.after_grip(last))
+                if fault is None:
+                    self.supervisor.expect_hold(step.holds)
+                    self.held = Held(step.holds, self._picked_from)
+            else:  # a release, or the fingers opened before a descent
+                if last is not None and self.held is not None:
+                    fault = fault or self.supervisor.after_release(last)
+                if fault is None:
+                    self.supervisor.expect_open()
+                    self._released()
+        if gripper is not None:
+            self.supervisor.commanding(gripper, self._now)
+        return fault
 
-    def _set_down_held_block(self, block: int, where: Pose2D) -> None:
-        self.detail = f"setting block {block} down at ({where.x:.3f}, {where.y:.3f})"
-        self._log(self.detail)
-        self.expected[block] = where
-        above = ToolPose(where.x, where.y, self.cfg.travel_height,
-                         (self.commanded or self.tcp).yaw)
-        steps: list[Step] = [
-            Rise(self.cfg.travel_height, self.cfg.vertical_limits, f"block {block}: rise"),
-            Move(above, self.cfg.travel_limits, f"block {block}: carry"),
-            Move(above.with_z(self.cfg.grasp_height + self.cfg.place_drop),
-                 self.cfg.vertical_limits, f"block {block}: lower"),
-            Grip(self.geo.approach_opening, self.cfg.gripper_settle_s, f"block {block}: release"),
-            Move(above, self.cfg.vertical_limits, f"block {block}: retreat"),
-        ]
-        self._start_runner(steps, then="put_back")
+    def _released(self) -> None:
+        """The fingers let go of a held block: it stands where the arm set it down (reported,
+        so perception can be checked against the arm)."""
+        if self.held is not None and self.held.block is not None:
+            where = self.expected.get(self.held.block)
+            if where is not None:
+                self._out.placement = (self.held.block, where)
+        self.held = None
 
+    def _on_grasp_fault(self, fault: GraspFault) -> None:
+        """Stop the motion, let go of whatever the fingers hold, look again."""
+        assert self.runner is not None
+        self.metrics["faults"] += 1
+        key = f"faults_{fault.kind.name.lower()}"
+        self.metrics[key] = self.metrics.get(key, 0.0) + 1.0
+        self._log(f"{fault.describe()}: stopping, letting go, looking again")
+        self.detail = fault.describe()
+        if fault.kind is FaultKind.MISFIRE and self.supervisor.commanded is not None:
+            self._out.gripper = self.supervisor.commanded  # ours again, at once
+        block = self.held.block if self.held is not None else None
+        if fault.kind in (FaultKind.MISSED, FaultKind.MISFIRE):
+            self._grasp_tries += 1
+        if block is not None:
+            self.expected.pop(block, None)  # it is wherever it fell: the camera will tell
+        elif self.plan is not None and self.index < len(self.plan.actions):
+            moved = self.plan.actions[self.index].block
+            if fault.holding_something or self._picked_from is None:
+                self.expected.pop(moved, None)  # let go of where the fingers were: look
+            else:
+                self.expected[moved] = self._picked_from  # untouched: it should still be there
+        self.held = None
+        self.supervisor.stop_judging()
+        self._enter(State.RECOVERING)
+        self._look_after_recovery = Purpose.RECOVERY
+        self.runner.brake(self._now - self._script_lag, BRAKE_DECEL,
+                          let_go_steps(self.geo, self.cfg, "recover"))
+        self._after = After.RECOVERED
+
+    # --- recovery -------------------------------------------------------------------------------
     def _recover_held_block(self) -> None:
-        """The fingers held a block when this executor started: find which, set it down."""
-        self._recovering = False
+        """The fingers hold a block (found at start-up, say): find which, set it down."""
         plan = self.plan
-        assert plan is not None
-        known = {b.id: b.pose for b in plan.scene.blocks} if plan.scene else {}
-        unseen = sorted(set(known) - set(self.perceived))
-        if len(unseen) != 1:
-            self._log(f"the fingers seemed to hold a block, but {len(unseen)} blocks are "
-                      "unseen; opening the gripper here, out of the workspace")
-            self.holding = None
-            self._start_runner([Grip(self.geo.approach_opening, self.cfg.gripper_settle_s,
-                                     "open")], then="put_back")
-            return
-        block = unseen[0]
+        assert plan is not None and self.held is not None
+        block = self.held.block
+        if block is None:
+            known = ({b.id for b in plan.scene.blocks} if plan.scene else set()) | set(
+                self.expected)
+            unseen = sorted(known - set(self.perceived))
+            if len(unseen) != 1:
+                self._log(f"the fingers hold something, but {len(unseen)} blocks are unseen; "
+                          "letting go here, out of the workspace, and looking again")
+                self.held = None
+                self._look_after_recovery = self._purpose
+                self._enter(State.RECOVERING)
+                self._start_runner(let_go_steps(self.geo, self.cfg, "recover"), After.RECOVERED)
+                return
+            block = unseen[0]
+        near = self.held.picked_from or (plan.scene.blocks and next(
+            (b.pose for b in plan.scene.blocks if b.id == block), None))
         tool = self.commanded or self.tcp
         assert tool is not None
-        workspace = plan.scene.workspace
-        spot = free_spot(self.perceived, workspace, self.geo, tool.yaw,
-                         (known[block].x, known[block].y),
-                         table_margin_of(plan.params))
+        target = near or Pose2D(tool.x, tool.y, 0.0)
+        workspace = plan.scene.workspace if plan.scene else None
+        spot = None if workspace is None else free_spot(
+            self.perceived, workspace, self.geo, tool.yaw, (target.x, target.y),
+            table_margin_of(plan.params))
         if spot is None:
             self._fail(f"holding block {block} and no free spot to set it down")
             return
-        self.holding = block
-        self._set_down_held_block(block, spot)
+        self._set_down(block, spot)
 
-    def _start_runner(self, steps: list[Step], then: str) -> None:
+    def _set_down(self, block: int, where: Pose2D) -> None:
+        self.detail = f"setting block {block} down at ({where.x:.3f}, {where.y:.3f})"
+        self._log(self.detail)
+        self.held = Held(block)
+        self.expected[block] = where
+        yaw = (self.commanded or self.tcp).yaw
+        self._look_after_recovery = self._purpose  # then judge what was being judged
+        self._enter(State.RECOVERING)
+        self._start_runner(set_down_steps(block, where, yaw, self.geo, self.cfg), After.RECOVERED)
+
+    def _bring_in_outside_block(self, plan: Plan) -> bool:
+        """A perceived block outside the workspace (dropped, knocked): pick it up and set it
+        down at the nearest free spot inside. False when every block is inside."""
+        assert plan.scene is not None
+        away = outside(self.perceived, plan.scene.workspace, self.geo.block_size)
+        if not away:
+            return False
+        block = away[0]
+        margin = table_margin_of(plan.params)
+        table = plan.scene.workspace
+        reach = Workspace(table.x_min - 3 * margin, table.x_max + 3 * margin,
+                          table.y_min - 3 * margin, table.y_max + 3 * margin)
+        grasp = free_grasp(self.perceived, block, self.geo, reach)
+        at = self.perceived[block]
+        spot = free_spot({b: p for b, p in self.perceived.items() if b != block},
+                         plan.scene.workspace, self.geo, at.theta, (at.x, at.y), margin)
+        if grasp is None or spot is None:
+            self._fail(f"block {block} lies outside the workspace at ({at.x:.3f}, {at.y:.3f})"
+                       " and cannot be " + ("grasped there" if grasp is None else
+                                             "set down anywhere free inside"))
+            return True
+        self.detail = (f"bringing block {block} back into the workspace from "
+                       f"({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})")
+        self._log(self.detail)
+        self._picked_from = at
+        self.expected[block] = spot
+        self._look_after_recovery = self._purpose
+        self._enter(State.RECOVERING)
+        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg),
+                           After.RECOVERED)
+        return True
+
+    # --- running scripts ------------------------------------------------------------------------
+    def _start_runner(self, steps: list[Step], after: After) -> None:
         self._script_lag = 0.0
         self._last_run = None
         start = self.commanded or self.tcp
         assert start is not None
         self.runner = StepRunner(steps, start, self.cfg.convergence_tol,
                                  self.cfg.convergence_timeout_s, self.cfg.in_safe_box)
-        self._after_runner = then
+        self._after = after
 
     def _run(self, now: float) -> None:
         runner = self.runner
@@ -582,64 +828,103 @@ class ExecutorCore:
         self.commanded = tick.setpoint
         self._out.setpoint = tick.setpoint
         self._out.gripper = tick.gripper
-        if not runner.finished and runner.index > 0:
-            previous = runner.steps[runner.index - 1]
-            if isinstance(previous, Grip):
-                self.holding = previous.holds
+        fault = None if tick.error else self._supervise(runner, tick.gripper)
+        if fault is not None and self.state is not State.STOPPING:
+            self._on_grasp_fault(fault)
+            return
         if tick.error:
-            if self.phase is Phase.STOPPING:
+            if self.state is State.STOPPING:
                 self.runner = None
-                self.phase = Phase.FAILED
+                self._enter(State.FAILED)
                 self.last_error = f"{self.last_error}; then {tick.error}"
                 return
             self._stop_safely(tick.error, failed=True)
             return
         if not tick.done:
             return
-        then, self.runner = self._after_runner, None
-        self._runner_done(then)
+        after, self.runner = self._after, None
+        self._runner_done(after)
 
-    def _runner_done(self, then: str) -> None:
-        if then == "trigger":
+    def _runner_done(self, after: After) -> None:
+        if after is After.LOOK:
             self._trigger()
-        elif then == "action_done":
-            self.metrics["actions_executed"] += 1
-            self.holding = None
-            looked_from_here = self._looks_after(self.index) and self.plan.scene is not None
-            self.index += 1
-            if self._stop_requested:
-                self._stop_safely("stop requested", failed=False)
-            elif looked_from_here:  # the script ended at the look pose
-                self._begin_observing("after_action")
-                self._trigger()
-            elif self.index >= len(self.plan.actions):
-                self._observe("goal")
-            else:
-                self._next_action()
-        elif then == "hovering":
+        elif after is After.ACTION_DONE:
+            self._action_done()
+        elif after is After.HOVERING:
             pending, self._pending_detection = self._pending_detection, None
             if pending is not None:
                 self._take_detection(pending)
-        elif then == "idle_parked":
-            pass
-        elif then == "put_back":
-            self.holding = None
-            self.phase = Phase.IDLE
-        elif then == "stopped":
-            self.phase = Phase.FAILED if self.last_error else Phase.STOPPED
-            self._log(f"arm parked: {self.phase.value}")
+        elif after is After.RECOVERED:
+            self.held = None
+            if self._stop_requested:
+                self._stop_safely("stop requested", failed=False)
+            else:
+                purpose = self._look_after_recovery
+                self._observe(purpose, near=purpose is Purpose.RECOVERY)
+        elif after is After.STOPPED:
+            self.held = None
+            self._enter(State.FAILED if self.last_error else State.STOPPED)
+            self._log(f"arm parked: {self.state.value}")
 
+    def _action_done(self) -> None:
+        plan = self.plan
+        assert plan is not None
+        self.metrics["actions_executed"] += 1
+        self._grasp_tries = 0
+        self.held = None
+        looked_from_here = self._looks_after(self.index) and plan.scene is not None
+        self.index += 1
+        if self._stop_requested:
+            self._stop_safely("stop requested", failed=False)
+        elif looked_from_here:  # the script ended at the look pose
+            self._begin_observing(Purpose.AFTER_ACTION)
+            self._trigger()
+        elif self.index >= len(plan.actions):
+            self._observe(Purpose.GOAL)
+        elif self.cfg.observe_every_action:
+            self._observe(Purpose.AFTER_ACTION, near=True)
+        else:
+            self._next_action()
+
+    # --- stopping -------------------------------------------------------------------------------
     def _stop_safely(self, reason: str, failed: bool) -> None:
-        """Lift straight up, then park (still holding a gripped block: nowhere is known safe)."""
+        """Stop, set down whatever the fingers hold (where it was picked up, or the nearest free
+        spot), then park: the arm never parks with a block in its fingers."""
         if failed:
             self.last_error = reason
         self.detail = reason
         self._log(f"stopping: {reason}")
-        self.phase = Phase.STOPPING
+        self._enter(State.STOPPING)
+        held = self.held
         self.runner = None
+        self.supervisor.stop_judging()
+        if held is not None and held.block is not None and self.plan is not None \
+                and self.plan.scene is not None:
+            where = held.picked_from or self._spot_near_tool()
+            if where is not None:
+                self._set_down_then_park(held.block, where)
+                return
         steps: list[Step] = [Rise(self.cfg.travel_height, self.cfg.vertical_limits, "stop: lift"),
                              *park_steps(self.cfg)[1:]]
-        self._start_runner(steps, then="stopped")
+        if held is not None:  # an unknown thing in the fingers: let go before parking
+            steps = [*let_go_steps(self.geo, self.cfg, "stop"), *park_steps(self.cfg)[1:]]
+        self._start_runner(steps, After.STOPPED)
+
+    def _spot_near_tool(self) -> Pose2D | None:
+        assert self.plan is not None and self.plan.scene is not None
+        tool = self.commanded or self.tcp
+        assert tool is not None
+        return free_spot(self.perceived, self.plan.scene.workspace, self.geo, tool.yaw,
+                         (tool.x, tool.y), table_margin_of(self.plan.params))
+
+    def _set_down_then_park(self, block: int, where: Pose2D) -> None:
+        self.detail = f"{self.detail}; setting block {block} down at ({where.x:.3f}, " \
+                      f"{where.y:.3f}) first"
+        self.expected[block] = where
+        yaw = (self.commanded or self.tcp).yaw
+        steps = [*set_down_steps(block, where, yaw, self.geo, self.cfg),
+                 *park_steps(self.cfg)[1:]]
+        self._start_runner(steps, After.STOPPED)
 
     def _fail(self, reason: str) -> None:
         self._stop_safely(reason, failed=True)

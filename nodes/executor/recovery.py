@@ -1,9 +1,10 @@
-"""Where to set down a block found in the fingers (after an executor restart, say).
+"""Recovery geometry and scripts: where a block can be set down or picked up, and the moves.
 
-The executor does not know how it came to hold the block, only that the fingers stopped at
-a block's width. It sets the block down at the free spot nearest where it wants it: block
-and both fingers (closing axis at the tool's yaw) clear of every perceived block by a
-margin, the block in the workspace, the fingers on the table.
+A block in the fingers that should not be there (found at start-up, or held when the arm
+must stop) is set down at the free spot nearest where it is wanted: block and both fingers
+(closing axis at the tool's yaw) clear of every perceived block by a margin, the block in the
+workspace, the fingers on the table. A block found outside the workspace (dropped, knocked)
+is brought back the same way, with a grasp whose fingers are clear where it lies.
 """
 
 from __future__ import annotations
@@ -13,9 +14,13 @@ from collections.abc import Mapping
 import numpy as np
 import shapely
 
-from msgs_py import Pose2D, Workspace
+from msgs_py import PickPlace, Pose2D, Workspace
 from msgs_py.cell import BLOCK_SIZE, TABLE_MARGIN, GripperGeometry
 from msgs_py.footprint import block_corners, grasp_finger_corners, to_polygons
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.motion import ToolPose
+from nodes.executor.primitives import pick_place_steps
+from nodes.executor.steps import Grip, Move, Rise, Step
 
 #: Finger gap (m) that means "holding a block": the pads stopped on a cube of the contract's
 #: BLOCK_SIZE (open for a grasp is the block + 2 x clearance, closed on nothing is 0, a push
@@ -74,3 +79,61 @@ def _inside(corners: np.ndarray, ws: Workspace, grow: float) -> np.ndarray:
     ok = ((x >= ws.x_min - grow) & (x <= ws.x_max + grow)
           & (y >= ws.y_min - grow) & (y <= ws.y_max + grow))
     return ok.all(axis=-1)
+
+
+def outside(perceived: Mapping[int, Pose2D], workspace: Workspace, block_size: float
+            ) -> list[int]:
+    """Ids of the perceived blocks whose footprint leaves the workspace."""
+    return sorted(b for b, pose in perceived.items()
+                  if not workspace.contains_square(pose, block_size))
+
+
+def free_grasp(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry,
+               table: Workspace, margin: float = 0.004) -> int | None:
+    """A grasp (0: closing along the block's x, 1: along its y) whose fingers, open for the
+    approach, touch no other perceived block and stand on the table; None when neither."""
+    pose = perceived[block]
+    others = [q for b, q in perceived.items() if b != block]
+    obstacles = None
+    if others:
+        p = np.array([[q.x, q.y, q.theta] for q in others])
+        obstacles = shapely.STRtree(shapely.buffer(
+            to_polygons(block_corners(p[:, 0], p[:, 1], p[:, 2], geo.block_size)), margin))
+    for grasp in (0, 1):
+        fingers = grasp_finger_corners(geo, pose.x, pose.y, pose.theta, grasp)
+        if not _inside(fingers, table, 0.0).all():
+            continue
+        if obstacles is None or not len(obstacles.query(to_polygons(fingers),
+                                                         predicate="intersects")[0]):
+            return grasp
+    return None
+
+
+def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,
+                   cfg: ExecutorConfig) -> list[Step]:
+    """Carry the block in the fingers above ``where``, set it down and let go."""
+    above = ToolPose(where.x, where.y, cfg.travel_height, yaw)
+    tag = f"block {block}"
+    return [
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius),
+        Move(above, cfg.travel_limits, f"{tag}: carry", converge=False),
+        Move(above.with_z(cfg.grasp_height + cfg.place_drop + cfg.approach_distance),
+             cfg.vertical_limits, f"{tag}: lower", converge=False),
+        Move(above.with_z(cfg.grasp_height + cfg.place_drop), cfg.approach_limits,
+             f"{tag}: lower (last cm)"),
+        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release"),
+        Move(above, cfg.vertical_limits, f"{tag}: retreat"),
+    ]
+
+
+def let_go_steps(geo: GripperGeometry, cfg: ExecutorConfig, label: str) -> list[Step]:
+    """Open the fingers where the tool is (whatever they hold stays there) and rise to travel
+    height."""
+    return [Grip(geo.approach_opening, cfg.gripper_settle_s, f"{label}: open"),
+            Rise(cfg.travel_height, cfg.vertical_limits, f"{label}: rise")]
+
+
+def bring_in_steps(block: int, at: Pose2D, to: Pose2D, grasp: int, geo: GripperGeometry,
+                   cfg: ExecutorConfig) -> list[Step]:
+    """Pick the block up where it lies (outside the workspace) and place it at ``to``."""
+    return pick_place_steps(PickPlace(block, at, to, grasp), at, geo, cfg)

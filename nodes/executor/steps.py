@@ -17,10 +17,11 @@ without a blend ends only when the measured TCP has converged on its end point.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from nodes.executor.motion import Limits, LinearMove, ToolPose
+from nodes.executor.motion import Limits, LinearMove, Profile, ToolPose
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,7 +59,17 @@ class Grip:
     wait: bool = True
 
 
-Step = Move | Rise | Grip
+@dataclass(frozen=True, slots=True)
+class Brake:
+    """Come to rest from ``velocity`` (m/s, x y z) along a straight line, decelerating at
+    ``decel`` (m/s^2): how the arm stops safely in the middle of a move."""
+
+    velocity: tuple[float, float, float]
+    decel: float
+    label: str = "brake"
+
+
+Step = Move | Rise | Grip | Brake
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,6 +148,7 @@ class StepRunner:
         self.gripper: float | None = None
         self._gripper_sent = False
         self._gaps: list[tuple[float, float]] = []
+        self.finished_steps: list[Step] = []  #: steps that ended in the last update
 
     @property
     def finished(self) -> bool:
@@ -160,6 +172,7 @@ class StepRunner:
         """
         self._measured_at = now if measured_at is None else measured_at
         self._gaps.extend(gaps)
+        self.finished_steps = []
         gripper: float | None = None
         while not self.finished:
             step = self.steps[self.index]
@@ -172,6 +185,7 @@ class StepRunner:
                 gripper = tick.gripper
             if tick.error or not tick.done:
                 return Tick(tick.setpoint, gripper, tick.done, tick.error, tick.label)
+            self.finished_steps.append(step)
             self._advance(step, now)
         setpoint = self._with_blend(self.commanded, now)
         return Tick(setpoint, gripper, not self._blending)
@@ -182,7 +196,9 @@ class StepRunner:
         self._t0 = now
         self._gripper_sent = False
         self._gaps = self._gaps[-1:]
-        if isinstance(step, Move | Rise):
+        if isinstance(step, Brake):
+            self._move = _braking_move(self.commanded, step)
+        elif isinstance(step, Move | Rise):
             target = self._target(step)
             if not self.in_safe_box(target):
                 self._t0 = None
@@ -191,14 +207,40 @@ class StepRunner:
             self._move = LinearMove.plan(self.commanded, target, step.limits)
         return ""
 
+    def velocity(self, now: float) -> tuple[float, float, float]:
+        """The setpoints' velocity (m/s) at ``now``, from the script's own timing."""
+        if self._t0 is None or self._move is None or self.finished:
+            return (0.0, 0.0, 0.0)
+        dt = 1e-3
+        a, b = self._sample(now - dt), self._sample(now)
+        return ((b.x - a.x) / dt, (b.y - a.y) / dt, (b.z - a.z) / dt)
+
+    def _sample(self, now: float) -> ToolPose:
+        assert self._move is not None and self._t0 is not None
+        return self._with_blend(self._move.sample(now - self._t0), now, keep=True)
+
+    def brake(self, now: float, decel: float, then: Sequence[Step] = ()) -> None:
+        """Stop the script where it is: decelerate along the current motion, then play
+        ``then`` (a recovery) from where the tool comes to rest."""
+        velocity = self.velocity(now)
+        here = self._sample(now) if self._move is not None and self._t0 is not None \
+            else self.commanded
+        self.steps = [Brake(velocity, decel), *then]
+        self.index = 0
+        self.commanded = here
+        self._t0 = None
+        self._move = None
+        self._blending = []
+
     def _target(self, step: Move | Rise) -> ToolPose:
         if isinstance(step, Move):
             return step.target
         return self.commanded.with_z(max(step.z, self.commanded.z))
 
-    def _with_blend(self, pose: ToolPose, now: float) -> ToolPose:
+    def _with_blend(self, pose: ToolPose, now: float, keep: bool = False) -> ToolPose:
         """``pose`` plus what blended previous moves have still to go."""
-        self._blending = [b for b in self._blending if now - b.t0 < b.move.duration]
+        if not keep:
+            self._blending = [b for b in self._blending if now - b.t0 < b.move.duration]
         for b in self._blending:
             d = b.offset(now)
             pose = pose.plus(d.x, d.y, d.z, d.yaw)
@@ -219,7 +261,7 @@ class StepRunner:
         if t < move.duration:
             return Tick(setpoint, None, False, label=step.label)
         self.commanded = move.end
-        converge = step.converge if isinstance(step, Move) else True
+        converge = step.converge if isinstance(step, Move) else not isinstance(step, Brake)
         if not converge or self._blending:
             return Tick(setpoint, None, not self._blending, label=step.label)
         if measured is not None and measured.distance_to(move.end) <= self.tol:
@@ -282,6 +324,40 @@ class StepRunner:
         self.index += 1
         self._t0 = None
         self._move = None
+
+
+def _braking_move(start: ToolPose, step: Brake) -> LinearMove:
+    """A straight stop from ``step.velocity``: the distance v^2 / (2 a) along it, covered in
+    v / a (a constant deceleration, written as the second half of a move)."""
+    vx, vy, vz = step.velocity
+    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if speed < 1e-6:
+        return LinearMove(start, start, Profile.fastest(math.inf, math.inf))
+    distance = speed * speed / (2.0 * step.decel)
+    end = start.offset(vx / speed * distance, vy / speed * distance, vz / speed * distance)
+    return BrakingMove(start, end, Profile.fastest(math.inf, math.inf), speed, step.decel)
+
+
+@dataclass(frozen=True, slots=True)
+class BrakingMove(LinearMove):
+    """Constant deceleration from ``speed`` to rest over the segment start-end."""
+
+    speed: float = 0.0
+    decel: float = 1.0
+
+    @property
+    def duration(self) -> float:
+        return self.speed / self.decel
+
+    def sample(self, t: float) -> ToolPose:
+        t = min(max(t, 0.0), self.duration)
+        covered = self.speed * t - 0.5 * self.decel * t * t
+        length = self.length
+        u = covered / length if length > 0 else 1.0
+        if u >= 1.0 - 1e-12:
+            return self.end
+        a, b = self.start, self.end
+        return a.plus(u * (b.x - a.x), u * (b.y - a.y), u * (b.z - a.z), 0.0)
 
 
 def _gripper_done(gaps: list[tuple[float, float]], opening: float, elapsed: float) -> bool:

@@ -71,8 +71,10 @@ class GraspFault:
 #: A held block reads this much narrower or wider than its size (pads compress, m).
 HELD_BELOW = 0.002
 HELD_ABOVE = 0.0015
-#: A requested gap further than this from the executor's own command is not ours (m).
+#: A requested gap further than this from the executor's own command is not ours (m) ...
 COMMAND_TOL = 0.0005
+#: ... except in reports from before the executor's last command can have reached it (s).
+COMMAND_IN_TRANSIT_S = 0.3
 
 
 class GraspSupervisor:
@@ -87,12 +89,14 @@ class GraspSupervisor:
         self.expect = Expect.NOTHING
         self.block: int | None = None
         self.commanded: float | None = None  #: the executor's own last gripper command
+        self._commanded_at = 0.0
         self.last: GripperReading | None = None
 
     # --- what to expect ------------------------------------------------------------------------
-    def commanding(self, opening: float) -> None:
-        """The executor sends ``opening``: stop judging until the fingers have done it."""
-        self.commanded = opening
+    def commanding(self, opening: float, at: float) -> None:
+        """The executor sends ``opening`` at time ``at`` (s): stop judging the fingers until
+        they have done it."""
+        self.commanded, self._commanded_at = opening, at
         self.expect = Expect.NOTHING
 
     def expect_open(self) -> None:
@@ -118,6 +122,13 @@ class GraspSupervisor:
         return self.block_size - HELD_BELOW <= r.gap <= self.block_size + HELD_ABOVE
 
     # --- judging -----------------------------------------------------------------------------
+    def _ours(self, reading: GripperReading) -> bool:
+        """The request the gripper reports is the executor's, or comes from before its last
+        command reached the gripper."""
+        assert self.commanded is not None
+        return (abs(reading.requested - self.commanded) <= COMMAND_TOL
+                or reading.stamp <= self._commanded_at + COMMAND_IN_TRANSIT_S)
+
     def after_grip(self, reading: GripperReading) -> GraspFault | None:
         """Judge a finished grip: a block of the expected width is held, or a miss."""
         self.last = reading
@@ -141,7 +152,7 @@ class GraspSupervisor:
     def on_reading(self, reading: GripperReading) -> GraspFault | None:
         """A reading while a script runs; a fault when the fingers are not as expected."""
         self.last = reading
-        if self.commanded is not None and abs(reading.requested - self.commanded) > COMMAND_TOL:
+        if self.commanded is not None and not self._ours(reading):
             return GraspFault(
                 FaultKind.MISFIRE,
                 f"the gripper was sent to {reading.requested * 1e3:.1f} mm by someone else "

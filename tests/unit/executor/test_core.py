@@ -11,8 +11,9 @@ import pytest
 from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Push, Scene
 from msgs_py.scene import Workspace
 from nodes.executor.config import ExecutorConfig
-from nodes.executor.core import ExecutorCore, Phase
+from nodes.executor.core import ExecutorCore, State
 from nodes.executor.motion import ToolPose
+from nodes.executor.supervision import GripperReading, ObjectStatus
 
 WS = Workspace(0.45, 0.95, -0.35, 0.35)
 CFG = ExecutorConfig(gripper_settle_s=0.2, detection_timeout_s=1.0, replan_timeout_s=5.0)
@@ -50,6 +51,7 @@ class World:
         self.hides = hides or (lambda tool: set())  # blocks the arm hides from the camera
         self.trigger_poses: list[ToolPose] = []
         self.setpoints: list[tuple[float, str, ToolPose]] = []
+        self.gripper: Gripper | None = None
         self.blocks = {b.id: b.pose for b in blocks}
         self.camera_delay = camera_delay
         self.camera_works = camera_works
@@ -62,12 +64,19 @@ class World:
         self.max_speed = 0.0
         core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
 
+    def _held_block(self) -> int | None:
+        held = self.core.held
+        return None if held is None else held.block
+
     def run(self, until: Callable[[], bool], max_t: float = 600.0) -> None:
-        t = 0.0
+        """Run until ``until()``, for at most ``max_t`` more seconds (time goes on from the
+        previous run)."""
+        t = self.t_end + DT if hasattr(self, "t_end") else 0.0
+        max_t += t
         last = None
         done_before = 0
         plans: list[tuple[float, Plan | None]] = []
-        held = self.core.holding
+        held = self._held_block()
         while t < max_t and not until():
             out = self.core.tick(t)
             self.logs += out.log
@@ -77,14 +86,17 @@ class World:
                     self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
                 last = out.setpoint
                 self.core.on_tcp(out.setpoint)
-            holding = self.core.holding
-            if held is not None and held >= 0 and holding is None:  # set down outside a plan
+            holding = self._held_block()
+            if held is not None and holding is None and self.gripper is None:  # set down
                 self.blocks[held] = self.core.expected[held]
             held = holding
+            if self.gripper is not None:
+                self.gripper.tick(t, out.gripper)
             done = int(self.core.metrics["actions_executed"])
-            if done > done_before:  # an action finished: the block is where it was sent
+            if done > done_before:
                 action = self.core.plan.actions[self.core.index - 1]
-                self.blocks[action.block] = self.core.expected[action.block]
+                if self.gripper is None or isinstance(action, Push):  # where it was sent
+                    self.blocks[action.block] = self.core.expected[action.block]
                 done_before = done
                 self.disturb(done)
             if out.trigger_camera and self.camera_works:
@@ -113,17 +125,62 @@ class World:
                 self.states.append(state)
             t += DT
         self.t_end = t - DT
-        assert until(), f"timed out in {self.core.phase}: {self.logs[-5:]}"
+        assert until(), f"timed out in {self.core.state}: {self.logs[-5:]}"
         state = self.core.status().state
         if self.states[-1] != state:
             self.states.append(state)
+
+
+class Gripper:
+    """A 2F-85 in the scripted world: it closes on a block under the fingers at grasp height,
+    carries it with the tool and sets it down where it opens; it reports like the driver."""
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        self.requested = 0.085
+        self.gap = 0.085
+        self.holding: int | None = None
+        world.gripper = self
+
+    def command(self, gap: float) -> None:
+        self.requested = gap
+
+    def tick(self, t: float, command: float | None) -> None:
+        if command is not None:
+            self.command(command)
+        tool = self.world.core.commanded or self.world.core.tcp
+        if self.requested < self.gap - 1e-9 and self.holding is None:  # closing
+            under = [b for b, p in self.world.blocks.items()
+                     if math.hypot(p.x - tool.x, p.y - tool.y) < 0.004 and tool.z < 0.03]
+            self.holding = under[0] if under else None
+            self.gap = 0.0508 if self.holding is not None else self.requested
+            if self.holding is not None:  # the block turns with the tool from here
+                self.grip = (tool.yaw, self.world.blocks[self.holding].theta)
+        elif self.requested > self.gap + 1e-9:  # opening: let go where the tool is
+            if self.holding is not None:
+                p = self.world.blocks[self.holding]
+                self.world.blocks[self.holding] = Pose2D(tool.x, tool.y, p.theta)
+            self.holding = None
+            self.gap = self.requested
+        if self.holding is not None:  # carried along, turning with the tool
+            tool_yaw0, theta0 = self.grip
+            self.world.blocks[self.holding] = Pose2D(tool.x, tool.y,
+                                                     theta0 + tool.yaw - tool_yaw0)
+        status = (ObjectStatus.STOPPED_CLOSING if self.holding is not None
+                  else ObjectStatus.AT_POSITION)
+        self.world.core.on_gripper(GripperReading(t, self.gap, self.requested, status))
+
+    def drop(self) -> None:
+        """The held block slips out of the fingers: they close on nothing."""
+        self.holding = None
+        self.gap = self.requested
 
 
 def test_a_plan_runs_observing_after_every_action_and_ends_verified():
     core = ExecutorCore(CFG)
     world = World(core, START)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert world.states == ["observing", "running", "observing", "running", "observing",
                             "running", "observing", "done"]
     assert core.metrics["actions_executed"] == 3 and core.metrics["observations"] == 4
@@ -152,7 +209,7 @@ def test_drift_beyond_tolerance_asks_for_a_replan_and_resumes_with_the_new_plan(
     world.disturb = nudge
     world.on_replan = replan
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert world.replan_requests == 1
     assert "replanning" in world.states
     assert core.status().metrics["replans"] == 1
@@ -165,7 +222,7 @@ def test_a_plan_naming_an_unseen_block_stops_safely_with_the_reason():
     bad = Plan((PickPlace(7, Pose2D(0.6, 0.0), Pose2D(0.7, 0.1), 0),), plan_id="bad",
                scene=scene(START, GOAL))
     core.on_plan(bad)
-    world.run(lambda: core.phase is Phase.FAILED)
+    world.run(lambda: core.state is State.FAILED)
     assert "block(s) [7]" in core.status().last_error
     assert core.commanded == CFG.park  # parked
 
@@ -174,29 +231,31 @@ def test_a_tcp_that_does_not_follow_stops_the_arm_and_reports():
     core = ExecutorCore(CFG)
     world = World(core, START)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.RUNNING)
+    world.run(lambda: core.state is State.RUNNING)
     frozen = core.tcp
     t = 100.0
-    while core.phase is Phase.RUNNING and t < 200:
+    while core.state is State.RUNNING and t < 200:
         core.tick(t)
         core.on_tcp(frozen)  # the arm holds still (an unreachable setpoint, say)
         t += DT
-    assert core.phase is Phase.STOPPING
+    assert core.state is State.STOPPING
     assert "TCP did not reach" in core.status().last_error
 
 
-def test_stop_while_carrying_then_start_puts_the_block_back_and_replans():
+def test_stop_while_carrying_sets_the_block_back_down_and_start_redoes_the_action():
     core = ExecutorCore(CFG)
     world = World(core, START)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.holding == 1)
+    world.run(lambda: core.held is not None and core.held.block == 1)
     core.request_stop()
-    world.run(lambda: core.phase is Phase.STOPPED)
-    assert core.holding == 1 and core.commanded == CFG.park
+    world.run(lambda: core.state is State.STOPPED)
+    # the arm never parks with a block in its fingers: it set block 1 down where it took it
+    assert core.held is None and core.commanded == CFG.park
+    assert world.blocks[1].distance_to(START[0].pose) < 1e-9
     replans = []
     world.on_replan = lambda: replans.append(1) or None
     core.request_start()
-    world.run(lambda: core.phase is Phase.RUNNING and core.index == 0 and core.holding is None,
+    world.run(lambda: core.state is State.RUNNING and core.index == 0 and core.held is None,
               max_t=200)
     # block 1 is back where it was picked, the world matches plan p1's start again: resume
     assert world.blocks[1].distance_to(START[0].pose) < 1e-9
@@ -207,7 +266,7 @@ def test_no_detection_is_retried_then_reported():
     core = ExecutorCore(CFG)
     world = World(core, START, camera_works=False)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase in (Phase.FAILED, Phase.STOPPING))
+    world.run(lambda: core.state in (State.FAILED, State.STOPPING))
     assert f"no detection after {CFG.detection_retries} camera triggers" in core.last_error
 
 
@@ -216,7 +275,7 @@ def test_an_empty_plan_for_a_reached_goal_is_verified_and_done():
     core = ExecutorCore(CFG)
     world = World(core, at_goal)
     core.on_plan(Plan((), plan_id="empty", scene=scene(at_goal, GOAL)))
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert core.metrics["final_pos_err_max_m"] == pytest.approx(0.0)
 
 
@@ -226,7 +285,7 @@ def test_a_plan_from_another_state_is_not_run_blindly():
     moved = [BlockPose(1, GOAL[1].x, GOAL[1].y, 0.0), START[1]]
     world = World(core, moved)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.REPLANNING)
+    world.run(lambda: core.state is State.REPLANNING)
     assert "plan start differs from perception" in core.detail
     assert math.isclose(world.blocks[1].x, GOAL[1].x)
 
@@ -237,9 +296,9 @@ def test_stop_between_actions_then_start_resumes_at_the_next_action():
     core.on_plan(two_action_plan())
     world.run(lambda: core.metrics["actions_executed"] == 1)
     core.request_stop()
-    world.run(lambda: core.phase is Phase.STOPPED)
+    world.run(lambda: core.state is State.STOPPED)
     core.request_start()
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert world.replan_requests == 0 and core.metrics["actions_executed"] == 3
 
 
@@ -267,7 +326,7 @@ def test_a_block_found_in_the_fingers_at_start_up_is_set_down_then_the_plan_runs
     world = World(core, [START[0]])  # the camera sees block 1 only: 2 is in the fingers
     core.on_finger_gap(0.0508)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert any("setting block 2 down at (0.800, 0.200)" in line for line in world.logs)
     assert world.replan_requests == 0
 
@@ -278,11 +337,11 @@ def test_a_held_block_whose_spot_is_taken_goes_to_free_space_and_the_plan_is_red
     world = World(core, [squatter])
     core.on_finger_gap(0.0508)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.REPLANNING)
+    world.run(lambda: core.state is State.REPLANNING)
     spot = core.expected[2]
     assert spot.distance_to(squatter.pose) >= 0.0508 + 0.008  # clear of the squatter
     assert WS.contains_square(spot, 0.0508)
-    assert core.holding is None and "plan start differs" in core.detail
+    assert core.held is None and "plan start differs" in core.detail
 
 
 def test_a_replan_asked_for_by_a_detection_callback_leaves_with_the_next_tick():
@@ -291,9 +350,9 @@ def test_a_replan_asked_for_by_a_detection_callback_leaves_with_the_next_tick():
     moved = [BlockPose(1, GOAL[1].x, GOAL[1].y, 0.0), START[1]]
     world = World(core, moved)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.OBSERVING and core._trigger_ns is not None)
+    world.run(lambda: core.state is State.OBSERVING and core._trigger_ns is not None)
     core.on_detection(BlockSet(tuple(moved), core._trigger_ns))  # a callback, between ticks
-    assert core.phase is Phase.REPLANNING
+    assert core.state is State.REPLANNING
     assert core.tick(500.0).request_replan
     assert not core.tick(500.01).request_replan
 
@@ -313,15 +372,15 @@ def test_a_residual_the_planner_cannot_correct_is_accepted_only_within_tolerance
 
     world.disturb = twist
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.REPLANNING)
+    world.run(lambda: core.state is State.REPLANNING)
     core.on_planner_failed("block 2 can be neither grasped nor pushed")
     if accepted:
-        assert core.phase is Phase.DONE
+        assert core.state is State.DONE
         assert "acceptance tolerance" in core.status().detail
         assert "block 2 off by 0.0 mm / 1.8 deg" in core.status().detail
         assert core.metrics["final_yaw_err_max_deg"] == pytest.approx(1.8)
     else:
-        assert core.phase is Phase.REPLANNING
+        assert core.state is State.REPLANNING
         world.run(lambda: world.replan_requests >= 2)  # keeps asking, then gives up in time
 
 
@@ -330,7 +389,7 @@ def test_a_planner_failure_outside_a_replan_changes_nothing():
     World(core, START)
     core.on_plan(two_action_plan())
     core.on_planner_failed("an old latched failure")
-    assert core.phase is Phase.IDLE
+    assert core.state is State.IDLE
 
 
 def test_an_empty_plan_leaving_a_near_goal_block_ends_the_run_within_acceptance():
@@ -341,8 +400,8 @@ def test_an_empty_plan_leaving_a_near_goal_block_ends_the_run_within_acceptance(
     world = World(core, blocks)
     core.on_plan(Plan((), plan_id="empty", scene=scene(blocks, GOAL),
                       params={"block_size": 0.0508}))
-    world.run(lambda: core.phase in (Phase.DONE, Phase.FAILED, Phase.REPLANNING))
-    assert core.phase is Phase.DONE
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.REPLANNING))
+    assert core.state is State.DONE
     assert "an empty plan" in core.status().detail
 
 
@@ -357,10 +416,10 @@ def test_a_planner_that_keeps_failing_makes_the_executor_give_up_with_the_reason
 
     world.disturb = twist
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.REPLANNING)
+    world.run(lambda: core.state is State.REPLANNING)
     for _ in range(CFG.max_replans):
         core.on_planner_failed("block 2 can be neither grasped nor pushed")
-    world.run(lambda: core.phase in (Phase.FAILED, Phase.STOPPED) or core.status().state
+    world.run(lambda: core.state in (State.FAILED, State.STOPPED) or core.status().state
               == "failed")
     status = core.status()
     assert status.state == "failed"
@@ -374,7 +433,7 @@ def test_the_arm_moves_on_to_the_next_block_while_the_camera_looks():
     core = ExecutorCore(CFG)
     world = World(core, START, camera_delay=0.8, answers_trigger=True)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert world.states == ["observing", "running", "observing", "running", "observing",
                             "running", "observing", "done"]
     after_action = world.trigger_poses[1:-1]  # the first and last looks are from the park pose
@@ -397,7 +456,7 @@ def test_blocks_the_arm_hides_at_the_look_pose_are_looked_at_from_the_park_pose(
 
     world = World(core, START, hides=hides)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     assert any("not seen; looking again from the park pose" in line for line in world.logs)
     assert CFG.park in world.trigger_poses[1:-1]
     assert core.metrics["actions_executed"] == 3
@@ -407,7 +466,7 @@ def test_simulated_time_is_charged_to_actions_and_looking():
     core = ExecutorCore(CFG)
     world = World(core, START)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.DONE)
+    world.run(lambda: core.state is State.DONE)
     metrics = core.status().metrics
     assert metrics["time_pick_place_s"] > 0 and metrics["time_push_s"] > 0
     assert metrics["time_look_s"] > 4 * 0.3  # four looks, each waiting for the camera
@@ -421,7 +480,7 @@ def test_a_held_up_executor_resumes_its_trajectory_where_it_was():
     core = ExecutorCore(CFG)
     world = World(core, START)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.phase is Phase.RUNNING)
+    world.run(lambda: core.state is State.RUNNING)
     t, last, biggest = 50.0, core.commanded, 0.0
     for k in range(400):
         t += DT if k % 10 else 0.5  # every tenth tick comes half a second late
@@ -431,3 +490,73 @@ def test_a_held_up_executor_resumes_its_trajectory_where_it_was():
             last = out.setpoint
             core.on_tcp(out.setpoint)
     assert 0.0 < biggest <= 2.0 * DT * CFG.speed * 1.01
+
+
+def test_with_a_reporting_gripper_the_plan_runs_supervised_to_the_goal():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    assert core.metrics["faults"] == 0
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-3
+
+
+def test_a_grip_on_nothing_is_noticed_looked_at_and_replanned():
+    """A hand moved block 1 away just before the fingers closed: a miss. The arm stops, lets
+    go, looks, and the planner gets the world as it is now."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    gripper = Gripper(world)
+    moved = Pose2D(0.60, -0.25, 0.3)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.RUNNING)
+    world.blocks[1] = moved  # knocked away while the arm approaches
+    world.on_replan = lambda: None
+    world.run(lambda: core.state is State.REPLANNING)
+    assert core.metrics["faults_missed"] == 1
+    assert any("grasp missed" in line for line in world.logs)
+    assert "block 1 off by" in core.detail
+    assert gripper.holding is None and core.held is None
+
+
+def test_a_block_dropped_in_the_carry_is_noticed_at_once_and_the_arm_stops():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    gripper = Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("carry"))
+    carrying = world.setpoints[-1][2]
+    gripper.drop()
+    world.on_replan = lambda: None
+    world.run(lambda: core.state is State.RECOVERING)
+    assert core.metrics["faults_dropped"] == 1
+    # noticed within a tick or two: the arm had not gone on more than a few centimetres
+    assert world.setpoints[-1][2].distance_to(carrying) < 0.05
+    world.run(lambda: core.state is State.REPLANNING)
+    assert "block 1" in core.detail
+
+
+def test_a_stray_close_while_approaching_is_undone_and_the_action_tried_again():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    gripper = Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None
+              and core.runner.current_label.endswith("travel above"))
+    gripper.command(0.0)  # another program closes the gripper
+    world.run(lambda: core.metrics["faults"] >= 1)
+    assert core.metrics["faults_misfire"] == 1
+    world.run(lambda: core.state is State.DONE)
+    assert world.replan_requests == 0  # nothing had moved: the same action again
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-3
+
+
+def test_the_state_table_covers_every_state_and_names_every_change():
+    from nodes.executor.core import TRANSITIONS
+
+    assert set(TRANSITIONS) == set(State)
+    assert all(reason for targets in TRANSITIONS.values() for reason in targets.values())
+    from msgs_py import EXECUTOR_STATES
+
+    assert {s.value for s in State} == set(EXECUTOR_STATES)

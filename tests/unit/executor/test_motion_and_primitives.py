@@ -274,3 +274,26 @@ def test_a_blended_corner_stays_within_its_radius_and_under_the_speed_limit():
     no_blend = play([Move(corner, CFG.vertical_limits, "lift"),
                      Move(end, CFG.travel_limits, "carry")], start=start)
     assert len(stream) < len(no_blend)  # and it is faster
+
+
+def test_braking_stops_a_move_on_its_line_within_the_deceleration():
+    runner = StepRunner([Move(ToolPose(1.0, 0.0, 0.3, 0.0), CFG.travel_limits, "go")],
+                        HOME, 0.002, 1.0)
+    t, last = 0.0, HOME
+    while t < 0.4:  # well into the move, at speed
+        last = runner.update(t, last).setpoint
+        t += 0.005
+    speed = math.hypot(*runner.velocity(t - 0.005))
+    assert speed > 0.3
+    runner.brake(t, decel=5.0)
+    stream = []
+    while not runner.finished:
+        tick = runner.update(t, last)
+        stream.append(tick.setpoint)
+        last = tick.setpoint
+        t += 0.005
+    xs = np.array([p.x for p in stream])
+    assert np.all(np.diff(xs) >= -1e-12)  # on along the line, never back
+    assert np.max(np.abs(np.diff(xs, 2))) / 0.005**2 <= 5.0 * 1.01  # within the deceleration
+    assert xs[-1] - stream[0].x <= speed**2 / (2 * 5.0) + 0.01
+    assert all(p.y == 0.0 and p.z == pytest.approx(0.3) for p in stream)
