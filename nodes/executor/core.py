@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D, Workspace
 from msgs_py.cell import GripperGeometry, table_margin_of
+from msgs_py.placement import Placement
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.ledger import TimeLedger
 from nodes.executor.motion import ToolPose
@@ -160,7 +161,7 @@ class Outputs:
     gripper: float | None = None
     trigger_camera: bool = False
     request_replan: bool = False
-    placement: tuple[int, Pose2D] | None = None  #: a block the arm just set down, and where
+    placement: Placement | None = None  #: a block the arm just set down, and where
     log: list[str] = field(default_factory=list)
 
 
@@ -691,10 +692,13 @@ class ExecutorCore:
     def _released(self) -> None:
         """The fingers let go of a held block: it stands where the arm set it down (reported,
         so perception can be checked against the arm)."""
-        if self.held is not None and self.held.block is not None:
-            where = self.expected.get(self.held.block)
-            if where is not None:
-                self._out.placement = (self.held.block, where)
+        held = self.held
+        if held is not None and held.block is not None and held.picked_from is not None:
+            where = self.expected.get(held.block)
+            tool = self.commanded or self.tcp
+            if where is not None and tool is not None:
+                self._out.placement = Placement(held.block, where, held.picked_from, tool.yaw,
+                                                round(self._now * 1e9))
         self.held = None
 
     def _on_grasp_fault(self, fault: GraspFault) -> None:

@@ -7,9 +7,9 @@ gap last requested (by anyone: a stray command from another program shows here t
 tells the executor, within one status period, whether
 
 * a grip closed on a block of the expected width (else: a miss),
-* a held block is still held while the arm lifts, carries and lowers it (else: a drop; a
-  block that slips but stays between the pads still reads as held and is caught when the
-  camera sees where it was set down),
+* a held block is still held while the arm lifts, carries and lowers it (else: a drop, seen
+  as the fingers closing past the block's width; a block that slips but stays between the
+  pads still reads as held and is caught when the camera sees where it was set down),
 * the fingers are empty after a release,
 * nobody else moved the fingers (a stray open or close command: a misfire).
 
@@ -129,6 +129,12 @@ class GraspSupervisor:
         return (abs(reading.requested - self.commanded) <= COMMAND_TOL
                 or reading.stamp <= self._commanded_at + COMMAND_IN_TRANSIT_S)
 
+    def _dropped(self, r: GripperReading) -> bool:
+        """The held block is gone: the force-limited fingers close past its width at once
+        (within a report or two). A block sliding in the pads makes the gripper report
+        "moving" for a moment, but the gap stays the block's width: that is not a drop."""
+        return not self._block_wide(r)
+
     def after_grip(self, reading: GripperReading) -> GraspFault | None:
         """Judge a finished grip: a block of the expected width is held, or a miss."""
         self.last = reading
@@ -158,7 +164,7 @@ class GraspSupervisor:
                 f"the gripper was sent to {reading.requested * 1e3:.1f} mm by someone else "
                 f"(the executor asked for {self.commanded * 1e3:.1f} mm)",
                 holding_something=reading.status is ObjectStatus.STOPPED_CLOSING)
-        if self.expect is Expect.HOLD and not self.holds_block(reading):
+        if self.expect is Expect.HOLD and self._dropped(reading):
             return GraspFault(FaultKind.DROPPED,
                               f"block {self.block} left the fingers (gap "
                               f"{reading.gap * 1e3:.1f} mm)", holding_something=False)

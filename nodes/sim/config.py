@@ -59,7 +59,16 @@ class SimConfig:
                                  "(tool down; informational, published in the README)", unit="m")
     lost_margin: float = param(0.02, "a resting block whose centre is this far outside the "
                                "workspace counts as lost", unit="m")
-    seed: int = param(0, "seed of the pixel noise generator")
+    seed: int = param(0, "seed of the cell's randomness (pixel noise, block-to-block spread)")
+    block_mass_spread: float = param(
+        0.08, "relative standard deviation of the blocks' masses (softwood density varies "
+        "400-550 kg/m^3)")
+    block_friction_spread: float = param(
+        0.15, "relative standard deviation of the blocks' friction coefficients (wood on wood "
+        "or MDF: 0.25-0.5)")
+    gripper_latency_s: float = param(
+        0.02, "time from a /gripper/command to the gripper acting on it (2F-85 on Modbus RTU: "
+        "a request/response cycle of a few ms plus the driver's polling)", unit="s")
 
     def __post_init__(self) -> None:
         if self.physics_rate_hz < 240.0:
@@ -85,6 +94,10 @@ class SimConfig:
             raise ValueError(f"home_joints needs 6 finite values, got {self.home_joints}")
         if len(self.park_position) != 3:
             raise ValueError("park_position needs 3 values")
+        if not 0.0 <= self.block_mass_spread < 0.5 or not 0.0 <= self.block_friction_spread < 0.5:
+            raise ValueError("block_mass_spread and block_friction_spread must be in [0, 0.5)")
+        if self.gripper_latency_s < 0.0:
+            raise ValueError(f"gripper_latency_s must be >= 0, got {self.gripper_latency_s}")
 
     @property
     def dt(self) -> float:

@@ -125,16 +125,27 @@ class SimWorld:
         return self._textures[tag_id]
 
     def _spawn_block(self, block: BlockPose) -> int:
+        """A block of the scene; its mass and friction vary from block to block (seeded by
+        the sim's seed and the block id), as real wooden blocks do."""
         c = self.client
         s = rm.BLOCK_SIZE
+        mass, friction = self.block_variation(block.id)
         quat = (0.0, 0.0, math.sin(block.theta / 2), math.cos(block.theta / 2))
-        body = c.createMultiBody(rm.BLOCK_MASS, self._block_collision, self._block_visual,
+        body = c.createMultiBody(mass, self._block_collision, self._block_visual,
                                  basePosition=[block.x, block.y, s / 2], baseOrientation=quat)
         c.changeVisualShape(body, -1, textureUniqueId=self._texture(block.id),
                             rgbaColor=[1, 1, 1, 1])
-        c.changeDynamics(body, -1, lateralFriction=rm.FRICTION_BLOCK, linearDamping=0.0,
+        c.changeDynamics(body, -1, lateralFriction=friction, linearDamping=0.0,
                          angularDamping=0.0, frictionAnchor=1)
         return body
+
+    def block_variation(self, block_id: int) -> tuple[float, float]:
+        """(mass kg, friction coefficient) of block ``block_id``: the nominal values spread
+        by ``block_mass_spread`` / ``block_friction_spread`` (relative, clipped at 2 sigma)."""
+        rng = np.random.default_rng([self.config.seed, block_id])
+        dm, df = np.clip(rng.normal(0.0, 1.0, 2), -2.0, 2.0)
+        return (rm.BLOCK_MASS * (1.0 + self.config.block_mass_spread * dm),
+                rm.FRICTION_BLOCK * (1.0 + self.config.block_friction_spread * df))
 
     # --- lifecycle ------------------------------------------------------------------------------
     def reset(self, scene: Scene | None = None) -> None:
@@ -154,6 +165,10 @@ class SimWorld:
         self.controller.reset(self.config.home_joints)
         self.gripper_gap = rm.GRIPPER_STROKE
         self._apply_gripper()
+        self._gripper_queue: list[tuple[float, float]] = []  # (time due, gap) on the way
+        self._pad_friction_restore: float | None = None  # a fault's slippery pads end then
+        self._slip_until = 0.0
+        self._twist: tuple[int, float, float] | None = None
         self.disturbances: dict[int, _Disturbance] = {}
         self.step_count = 0
         self.monitor = EventMonitor(self.scene.workspace, rm.TABLE_EXTENT, rm.BLOCK_SIZE,
@@ -181,10 +196,20 @@ class SimWorld:
         return self.controller.set_setpoint(position, quat_xyzw, frame_id, stamp_s)
 
     def set_gripper(self, gap: float) -> float:
-        """Command the gap between the pads (m, clipped to the stroke); returns the clipped gap."""
-        self.gripper_gap = clip_gripper_gap(gap)
-        self._apply_gripper()
-        return self.gripper_gap
+        """Command the gap between the pads (m, clipped to the stroke); the gripper acts on it
+        ``gripper_latency_s`` later (its fieldbus cycle). Returns the clipped gap."""
+        gap = clip_gripper_gap(gap)
+        if self.config.gripper_latency_s <= 0.0:
+            self.gripper_gap = gap
+            self._apply_gripper()
+        else:
+            self._gripper_queue.append((self.time_s + self.config.gripper_latency_s, gap))
+        return gap
+
+    def _gripper_commands_due(self) -> None:
+        while self._gripper_queue and self._gripper_queue[0][0] <= self.time_s + 1e-12:
+            _, self.gripper_gap = self._gripper_queue.pop(0)
+            self._apply_gripper()
 
     def _apply_gripper(self) -> None:
         for j in self.finger_joints:
@@ -206,6 +231,71 @@ class SimWorld:
         self.disturbances[block_id] = _Disturbance(pos[:2].copy(), vec / distance, distance,
                                                    self.time_s + DISTURB_TIMEOUT_S)
 
+    # --- faults (what a real cell meets; each one physical) -------------------------------------
+    def held_block(self) -> int | None:
+        """The block both fingers touch (the one in the gripper), or None."""
+        touching: dict[int, set[int]] = {}
+        for pt in self.client.getContactPoints(bodyA=self.robot):
+            link, body = pt[3], pt[2]
+            if link in self.finger_links and body in self.body_to_block:
+                touching.setdefault(self.body_to_block[body], set()).add(link)
+        held = [b for b, links in touching.items() if len(links) == 2]
+        return held[0] if held else None
+
+    def slippery_pads(self, factor: float, seconds: float) -> None:
+        """The pads lose grip (a greasy or dusty block): their friction times ``factor`` for
+        ``seconds``. Low enough, the held block slides or falls out of the fingers."""
+        if not 0.0 <= factor <= 1.0 or not seconds > 0.0:
+            raise ValueError(f"slippery pads: factor {factor} must be in [0, 1], seconds > 0")
+        if self._pad_friction_restore is None:
+            self._pad_friction_restore = rm.FRICTION_PAD
+        self._set_pad_friction(rm.FRICTION_PAD * factor)
+        self._slip_until = self.time_s + seconds
+
+    def twist_held(self, torque: float, seconds: float) -> int | None:
+        """A slip: the held block is twisted about the vertical by ``torque`` (N m) for
+        ``seconds`` while the pads grip at half their friction (a knock on a greasy block);
+        it turns in the fingers but stays held. Returns the block, or None if none is held."""
+        block = self.held_block()
+        if block is None:
+            return None
+        self.slippery_pads(0.5, seconds)
+        self._twist = (block, torque, self.time_s + seconds)
+        return block
+
+    def _apply_twist(self) -> None:
+        block, torque, until = self._twist
+        if self.time_s >= until or block not in self.block_bodies:
+            self._twist = None
+            return
+        self.client.applyExternalTorque(self.block_bodies[block], -1, (0.0, 0.0, torque),
+                                        pybullet.WORLD_FRAME)
+
+    def _set_pad_friction(self, mu: float) -> None:
+        """Pad friction ``mu``; friction anchors (which pin contacts regardless of the
+        coefficient) are off while the pads are slippery, on the pads and the blocks."""
+        anchor = 1 if mu >= rm.FRICTION_PAD else 0
+        for j in self.finger_links:
+            self.client.changeDynamics(self.robot, j, lateralFriction=mu, frictionAnchor=anchor)
+        for body in self.block_bodies.values():
+            self.client.changeDynamics(body, -1, frictionAnchor=anchor)
+
+    def remove_block(self, block_id: int) -> None:
+        """Someone takes the block out of the cell."""
+        if block_id not in self.block_bodies:
+            raise ValueError(f"no block with id {block_id}")
+        body = self.block_bodies.pop(block_id)
+        del self.body_to_block[body]
+        self.client.removeBody(body)
+
+    def add_block(self, block: BlockPose) -> None:
+        """Someone puts a block (one the plan does not know) onto the table."""
+        if block.id in self.block_bodies:
+            raise ValueError(f"block {block.id} is already in the cell")
+        body = self._spawn_block(block)
+        self.block_bodies[block.id] = body
+        self.body_to_block[body] = block.id
+
     def set_manipulated(self, block_id: int | None) -> None:
         if self.monitor is not None:
             self.monitor.manipulated = block_id
@@ -214,12 +304,19 @@ class SimWorld:
     def step(self, n: int = 1) -> None:
         c = self.client
         for _ in range(n):
+            if self._gripper_queue:
+                self._gripper_commands_due()
+            if self._pad_friction_restore is not None and self.time_s >= self._slip_until:
+                self._set_pad_friction(self._pad_friction_restore)
+                self._pad_friction_restore = None
             q, v = self.controller.step(self.config.dt, self.time_s + self.config.dt)
             c.setJointMotorControlArray(
                 self.robot, self.arm_joints, pybullet.POSITION_CONTROL, targetPositions=q,
                 targetVelocities=v, forces=rm.JOINT_TORQUE_LIMIT)
             if self.disturbances:
                 self._push_disturbed()
+            if self._twist is not None:
+                self._apply_twist()
             c.stepSimulation()
             self.step_count += 1
             if self.step_count % self._contact_every == 0:

@@ -1,0 +1,83 @@
+"""Faults a real cell meets, made physically in the sim: what the gripper then reports."""
+
+from __future__ import annotations
+
+from msgs_py import BlockPose, PickPlace, Pose2D
+from msgs_py.cell import GripperGeometry
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.primitives import action_steps
+
+from .arm_loop import play
+
+CFG = ExecutorConfig()
+GEO = GripperGeometry()
+START, GOAL = Pose2D(0.60, -0.10, 0.2), Pose2D(0.80, 0.15, 0.0)
+
+
+def carry_with(world_factory, fault):
+    """Pick block 0 at START, carry it to GOAL; ``fault(world)`` when the carry begins.
+    Returns the world and the gripper reports (time, gap, requested, object) of the carry."""
+    world = world_factory([(0, START.x, START.y, START.theta)])
+    world.step(24)
+    reports, carrying = [], []
+
+    def on_label(w, label):
+        if label.endswith(": carry"):
+            carrying.append(w.time_s)
+            fault(w)
+
+    def on_tick(w):
+        if carrying:
+            reports.append((w.time_s, *w.gripper_status()))
+
+    play(world, action_steps(PickPlace(0, START, GOAL, 0), START, GEO, CFG), CFG, on_label,
+         on_tick)
+    return world, reports, carrying[0]
+
+
+def test_without_a_fault_the_block_is_held_through_the_carry_and_placed(world_factory):
+    world, reports, _ = carry_with(world_factory, lambda w: None)
+    carry = [r for r in reports if r[3] != 0.0688]  # until the release command
+    assert all(obj == 2 for _, _, _, obj in reports[:20])  # stopped on an object, closing
+    end = world.block_poses()[0]
+    assert end.pose.distance_to(GOAL) < 0.001 and carry
+
+
+def test_a_drop_shows_in_the_gripper_report_within_a_tenth_of_a_second(world_factory):
+    world, reports, t0 = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.4))
+    empty = next(t for t, gap, _, obj in reports if obj != 2 or gap < 0.0508 - 0.002)
+    assert empty - t0 <= 0.1
+    assert world.block_poses()[0].pose.distance_to(GOAL) > 0.1  # it fell on the way
+
+
+def test_a_slip_leaves_the_block_in_the_fingers(world_factory):
+    _, reports, _ = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.05))
+    carry = reports[:25]
+    # the fingers follow the sliding block (the driver says "moving" for a moment) but
+    # never leave its width, and it is held again
+    assert all(abs(gap - 0.0508) < 0.002 for _, gap, _, _ in carry)
+    assert any(obj != 2 for _, _, _, obj in carry) and carry[-1][3] == 2
+
+
+def test_a_block_taken_away_and_one_put_in(world_factory):
+    world = world_factory([(0, 0.6, 0.0, 0.0), (1, 0.8, 0.0, 0.0)])
+    world.remove_block(1)
+    world.add_block(BlockPose(7, 0.7, 0.2, 0.3))
+    world.step(48)
+    assert sorted(b.id for b in world.block_poses()) == [0, 7]
+
+
+def test_blocks_differ_from_one_another_seeded(world_factory):
+    world = world_factory([(k, 0.5 + 0.06 * k, 0.0, 0.0) for k in range(5)], seed=3)
+    again = world_factory([(k, 0.5 + 0.06 * k, 0.0, 0.0) for k in range(5)], seed=3)
+    masses = [world.block_variation(k) for k in range(5)]
+    assert masses == [again.block_variation(k) for k in range(5)]
+    assert len({m for m, _ in masses}) == 5 and len({f for _, f in masses}) == 5
+
+
+def test_a_gripper_command_takes_effect_after_its_latency(world_factory):
+    world = world_factory([], gripper_latency_s=0.05)
+    world.set_gripper(0.03)
+    assert world.gripper_status()[1] == 0.085  # not there yet
+    world.step(round(0.06 * 240))
+    assert world.gripper_status()[1] == 0.03
