@@ -1,0 +1,154 @@
+"""Perception checked against the arm: a table-plane correction from the arm's own placements.
+
+A camera calibration that is a few millimetres or a few tenths of a degree off (a bumped
+camera, a rough hand-eye calibration) shifts every perceived pose by nearly the same rigid
+motion of the table plane: ``perceived = R(w) (true - c) + c + d``. The arm knows where it
+sets blocks down; the camera then says where it sees them. The difference would be the error
+itself but for the gripper: the 2F-85's fingers centre a block along their closing axis only,
+so a block picked where the camera (wrongly) saw it keeps, across that axis, the offset the
+error gave it. With ``e(p) = perceived - true`` at p, a block picked at P (perceived) along
+axis a and released with the TCP at G is seen at
+
+    O = G + e(G) - perp_a(e(P))        and its yaw at    theta_G + w,
+
+(the pads square the block up with the tool, so the yaw error shows whole). Both are linear in
+(dx, dy, w) for a fixed centre c: a few placements with closing axes in different directions
+give the error by least squares, and the detector then corrects its output (``PlaneCorrection``)
+so that perception and arm agree. Pure logic (numpy), no ROS.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from msgs_py import Pose2D, wrap_angle
+from msgs_py.placement import Placement
+
+#: Noise of a perceived position (m) and yaw (rad) after a placement, to weigh the equations.
+POSITION_SIGMA = 0.0003
+YAW_SIGMA = 0.003
+#: Correct only an error at least this large somewhere in the workspace (m at its edge) ...
+MIN_ERROR = 0.0004
+#: ... known to this fraction of itself (one sigma), from closing axes at least this far
+#: from parallel (sine of the angle between them).
+MAX_RELATIVE_SIGMA = 0.3
+MIN_AXIS_SPREAD = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class PlaneCorrection:
+    """The map perceived -> true on the table plane: undo a rotation ``w`` (rad) about
+    ``centre`` and a shift ``d`` (m): ``true = R(-w) (perceived - c - d) + c``."""
+
+    dx: float = 0.0
+    dy: float = 0.0
+    w: float = 0.0
+    cx: float = 0.0
+    cy: float = 0.0
+
+    def apply(self, p: Pose2D) -> Pose2D:
+        """The true pose of a block perceived at ``p``."""
+        c, s = math.cos(-self.w), math.sin(-self.w)
+        x, y = p.x - self.cx - self.dx, p.y - self.cy - self.dy
+        return Pose2D(c * x - s * y + self.cx, s * x + c * y + self.cy,
+                      wrap_angle(p.theta - self.w))
+
+    def error_at(self, x: float, y: float) -> float:
+        """How far (m) a block perceived at (x, y) is moved by this correction."""
+        q = self.apply(Pose2D(x, y, 0.0))
+        return math.hypot(q.x - x, q.y - y)
+
+    def describe(self) -> str:
+        return (f"shift ({self.dx * 1e3:+.2f}, {self.dy * 1e3:+.2f}) mm, turn "
+                f"{math.degrees(self.w):+.3f} deg about ({self.cx:.3f}, {self.cy:.3f})")
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """One placement, in the camera's uncorrected frame: picked where perceived at ``picked``,
+    released with the TCP at ``placed`` (arm frame), closing axis at ``axis_yaw``, then seen at
+    ``seen``."""
+
+    picked: Pose2D
+    placed: Pose2D
+    axis_yaw: float
+    seen: Pose2D
+
+
+@dataclass(frozen=True, slots=True)
+class Estimate:
+    correction: PlaneCorrection
+    sigma: tuple[float, float, float]  #: one-sigma uncertainty of dx, dy (m), w (rad)
+    samples: int
+    rms_residual: float  #: RMS of the fit's position residuals (m)
+
+
+def sample_from(placement: Placement, seen_raw: Pose2D, picked_raw: Pose2D) -> Sample:
+    return Sample(picked_raw, placement.pose, placement.closing_axis_yaw, seen_raw)
+
+
+def estimate(samples: Sequence[Sample], centre: tuple[float, float]) -> Estimate | None:
+    """The error (dx, dy, w) about ``centre`` that best explains the samples; None with fewer
+    than two placements."""
+    if len(samples) < 2:
+        return None
+    rows, rhs, weights = [], [], []
+    cx, cy = centre
+    for s in samples:
+        a = np.array([math.cos(s.axis_yaw), math.sin(s.axis_yaw)])
+        par = np.outer(a, a)  # v -> (v.a) a
+        perp = np.eye(2) - par
+        turn = np.array([[0.0, -1.0], [1.0, 0.0]])  # d/dw of R(w) v at w = 0
+        g = np.array([s.placed.x - cx, s.placed.y - cy])
+        p = np.array([s.picked.x - cx, s.picked.y - cy])
+        # O - G = par (d) + w (J g - perp J p)
+        a_d = par
+        a_w = turn @ g - perp @ (turn @ p)
+        rows += [np.append(a_d[k], a_w[k]) for k in range(2)]
+        rhs += [s.seen.x - s.placed.x, s.seen.y - s.placed.y]
+        weights += [1.0 / POSITION_SIGMA] * 2
+        rows.append(np.array([0.0, 0.0, 1.0]))  # the yaw shows the turn whole
+        rhs.append(math.remainder(s.seen.theta - s.placed.theta, math.pi / 2))
+        weights.append(1.0 / YAW_SIGMA)
+    a_mat = np.array(rows) * np.array(weights)[:, None]
+    b = np.array(rhs) * np.array(weights)
+    solution, *_ = np.linalg.lstsq(a_mat, b, rcond=None)
+    normal = a_mat.T @ a_mat
+    try:
+        cov = np.linalg.inv(normal)
+    except np.linalg.LinAlgError:
+        return None
+    fit = np.array(rows) @ solution - np.array(rhs)
+    pos = fit[[k for k in range(len(rhs)) if (k % 3) < 2]]
+    dx, dy, w = (float(v) for v in solution)
+    return Estimate(PlaneCorrection(dx, dy, w, cx, cy),
+                    tuple(float(math.sqrt(max(v, 0.0))) for v in np.diag(cov)), len(samples),
+                    float(np.sqrt(np.mean(pos ** 2))))
+
+
+def axis_spread(samples: Sequence[Sample]) -> float:
+    """Largest |sin| of the angle between two samples' closing axes (0: all parallel)."""
+    yaws = [s.axis_yaw for s in samples]
+    return max((abs(math.sin(a - b)) for i, a in enumerate(yaws) for b in yaws[i + 1:]),
+               default=0.0)
+
+
+def worth_correcting(est: Estimate, samples: Sequence[Sample],
+                     corners: Sequence[tuple[float, float]]) -> bool:
+    """The estimate is well determined and moves some corner of the workspace by more than
+    MIN_ERROR: apply it."""
+    if axis_spread(samples) < MIN_AXIS_SPREAD:
+        return False
+    c = est.correction
+    biggest = max(c.error_at(x, y) for x, y in corners)
+    if biggest < MIN_ERROR:
+        return False
+    shift = math.hypot(c.dx, c.dy)
+    shift_sigma = math.hypot(est.sigma[0], est.sigma[1])
+    ok_shift = shift < MIN_ERROR / 2 or shift_sigma <= MAX_RELATIVE_SIGMA * shift
+    ok_turn = abs(c.w) < YAW_SIGMA or est.sigma[2] <= MAX_RELATIVE_SIGMA * abs(c.w)
+    return ok_shift and ok_turn
