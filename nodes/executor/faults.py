@@ -1,0 +1,231 @@
+"""The executor's fault handling: grasp supervision, recoveries, and stopping safely.
+
+Part of ``ExecutorCore`` (a mixin: the same state, the same ``TRANSITIONS``), kept apart so
+the loop in core.py reads on its own. Every way the executor deals with what goes wrong is
+here: a grasp fault stops the arm by braking along its path, lets go of what the fingers hold
+and looks again; a block found in the fingers is set down at a free spot; a block outside the
+workspace is brought back in; a stop sets down a held block before parking, so the arm never
+parks with a block in its fingers.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from msgs_py import Plan, Pose2D, Workspace
+from msgs_py.cell import table_margin_of
+from msgs_py.placement import Placement
+from nodes.executor.primitives import park_steps
+from nodes.executor.recovery import (
+    bring_in_steps,
+    free_grasp,
+    free_spot,
+    let_go_steps,
+    outside,
+    set_down_steps,
+)
+from nodes.executor.states import After, Held, Purpose, State
+from nodes.executor.steps import Grip, Rise, Step, StepRunner
+from nodes.executor.supervision import Expect, FaultKind, GraspFault
+
+if TYPE_CHECKING:
+    from nodes.executor.core import ExecutorCore
+
+    _Base = ExecutorCore
+else:
+    _Base = object
+
+#: Deceleration when a fault stops the arm mid-move (m/s^2).
+BRAKE_DECEL = 5.0
+
+
+class FaultHandling(_Base):
+    """Grasp supervision, recoveries and the safe stop of ``ExecutorCore``."""
+
+    # --- grasp supervision ------------------------------------------------------------------------
+    def _supervise(self, runner: StepRunner, gripper: float | None) -> GraspFault | None:
+        """Tell the supervisor what the script did to the fingers, judge their reports. With
+        no gripper status (a gripper that reports only its finger joints), a grip is taken to
+        hold its block and a release to let go."""
+        fault = None
+        for reading in self._new_readings:  # taken before this tick's command
+            if fault is None and (self.supervisor.expect is not Expect.NOTHING
+                                  or self.supervisor.commanded is not None):
+                fault = self.supervisor.on_reading(reading)
+            else:
+                self.supervisor.last = reading
+        self._new_readings.clear()
+        last = self.supervisor.last
+        for step in runner.finished_steps:
+            if not isinstance(step, Grip) or not step.wait:
+                continue
+            if step.holds is not None:
+                fault = fault or (None if last is None else self.supervisor.after_grip(last))
+                if fault is None:
+                    self.supervisor.expect_hold(step.holds)
+                    self.held = Held(step.holds, self._picked_from)
+            else:  # a release, or the fingers opened before a descent
+                if last is not None and self.held is not None:
+                    fault = fault or self.supervisor.after_release(last)
+                if fault is None:
+                    self.supervisor.expect_open()
+                    self._released()
+        if gripper is not None:
+            self.supervisor.commanding(gripper, self._now)
+        return fault
+
+    def _released(self) -> None:
+        """The fingers let go of a held block: it stands where the arm set it down (reported,
+        so perception can be checked against the arm)."""
+        held = self.held
+        if held is not None and held.block is not None and held.picked_from is not None:
+            where = self.expected.get(held.block)
+            tool = self.commanded or self.tcp
+            if where is not None and tool is not None:
+                self._out.placement = Placement(held.block, where, held.picked_from, tool.yaw,
+                                                round(self._now * 1e9))
+        self.held = None
+
+    def _on_grasp_fault(self, fault: GraspFault) -> None:
+        """Stop the motion, let go of whatever the fingers hold, look again."""
+        assert self.runner is not None
+        self.metrics["faults"] += 1
+        key = f"faults_{fault.kind.name.lower()}"
+        self.metrics[key] = self.metrics.get(key, 0.0) + 1.0
+        self._log(f"{fault.describe()}: stopping, letting go, looking again")
+        self.detail = fault.describe()
+        if fault.kind is FaultKind.MISFIRE and self.supervisor.commanded is not None:
+            self._out.gripper = self.supervisor.commanded  # ours again, at once
+        block = self.held.block if self.held is not None else None
+        if fault.kind in (FaultKind.MISSED, FaultKind.MISFIRE):
+            self._grasp_tries += 1
+        if block is not None:
+            self.expected.pop(block, None)  # it is wherever it fell: the camera will tell
+        elif self.plan is not None and self.index < len(self.plan.actions):
+            moved = self.plan.actions[self.index].block
+            if fault.holding_something or self._picked_from is None:
+                self.expected.pop(moved, None)  # let go of where the fingers were: look
+            else:
+                self.expected[moved] = self._picked_from  # untouched: it should still be there
+        self.held = None
+        self.supervisor.stop_judging()
+        self._enter(State.RECOVERING)
+        self._look_after_recovery = Purpose.RECOVERY
+        self.runner.brake(self._now - self._script_lag, BRAKE_DECEL,
+                          let_go_steps(self.geo, self.cfg, "recover"))
+        self._after = After.RECOVERED
+
+    # --- recovery -------------------------------------------------------------------------------
+    def _recover_held_block(self) -> None:
+        """The fingers hold a block (found at start-up, say): find which, set it down."""
+        plan = self.plan
+        assert plan is not None and self.held is not None
+        block = self.held.block
+        if block is None:
+            known = ({b.id for b in plan.scene.blocks} if plan.scene else set()) | set(
+                self.expected)
+            unseen = sorted(known - set(self.perceived))
+            if len(unseen) != 1:
+                self._log(f"the fingers hold something, but {len(unseen)} blocks are unseen; "
+                          "letting go here, out of the workspace, and looking again")
+                self.held = None
+                self._look_after_recovery = self._purpose
+                self._enter(State.RECOVERING)
+                self._start_runner(let_go_steps(self.geo, self.cfg, "recover"), After.RECOVERED)
+                return
+            block = unseen[0]
+        near = self.held.picked_from or (plan.scene.blocks and next(
+            (b.pose for b in plan.scene.blocks if b.id == block), None))
+        tool = self.commanded or self.tcp
+        assert tool is not None
+        target = near or Pose2D(tool.x, tool.y, 0.0)
+        workspace = plan.scene.workspace if plan.scene else None
+        spot = None if workspace is None else free_spot(
+            self.perceived, workspace, self.geo, tool.yaw, (target.x, target.y),
+            table_margin_of(plan.params))
+        if spot is None:
+            self._fail(f"holding block {block} and no free spot to set it down")
+            return
+        self._set_down(block, spot)
+
+    def _set_down(self, block: int, where: Pose2D) -> None:
+        self.detail = f"setting block {block} down at ({where.x:.3f}, {where.y:.3f})"
+        self._log(self.detail)
+        self.held = Held(block)
+        self.expected[block] = where
+        yaw = (self.commanded or self.tcp).yaw
+        self._look_after_recovery = self._purpose  # then judge what was being judged
+        self._enter(State.RECOVERING)
+        self._start_runner(set_down_steps(block, where, yaw, self.geo, self.cfg), After.RECOVERED)
+
+    def _bring_in_outside_block(self, plan: Plan) -> bool:
+        """A perceived block outside the workspace (dropped, knocked): pick it up and set it
+        down at the nearest free spot inside. False when every block is inside."""
+        assert plan.scene is not None
+        away = outside(self.perceived, plan.scene.workspace, self.geo.block_size)
+        if not away:
+            return False
+        block = away[0]
+        margin = table_margin_of(plan.params)
+        table = plan.scene.workspace
+        reach = Workspace(table.x_min - 3 * margin, table.x_max + 3 * margin,
+                          table.y_min - 3 * margin, table.y_max + 3 * margin)
+        grasp = free_grasp(self.perceived, block, self.geo, reach)
+        at = self.perceived[block]
+        spot = free_spot({b: p for b, p in self.perceived.items() if b != block},
+                         plan.scene.workspace, self.geo, at.theta, (at.x, at.y), margin)
+        if grasp is None or spot is None:
+            self._fail(f"block {block} lies outside the workspace at ({at.x:.3f}, {at.y:.3f})"
+                       " and cannot be " + ("grasped there" if grasp is None else
+                                             "set down anywhere free inside"))
+            return True
+        self.detail = (f"bringing block {block} back into the workspace from "
+                       f"({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})")
+        self._log(self.detail)
+        self._picked_from = at
+        self.expected[block] = spot
+        self._look_after_recovery = self._purpose
+        self._enter(State.RECOVERING)
+        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg),
+                           After.RECOVERED)
+        return True
+
+    # --- stopping -------------------------------------------------------------------------------
+    def _stop_safely(self, reason: str, failed: bool) -> None:
+        """Stop, set down whatever the fingers hold (where it was picked up, or the nearest free
+        spot), then park: the arm never parks with a block in its fingers."""
+        if failed:
+            self.last_error = reason
+        self.detail = reason
+        self._log(f"stopping: {reason}")
+        self._enter(State.STOPPING)
+        held = self.held
+        self.runner = None
+        self.supervisor.stop_judging()
+        if held is not None and held.block is not None and self.plan is not None \
+                and self.plan.scene is not None:
+            where = held.picked_from or self._spot_near_tool()
+            if where is not None:
+                self._set_down_then_park(held.block, where)
+                return
+        steps: list[Step] = [Rise(self.cfg.travel_height, self.cfg.vertical_limits, "stop: lift"),
+                             *park_steps(self.cfg)[1:]]
+        if held is not None:  # an unknown thing in the fingers: let go before parking
+            steps = [*let_go_steps(self.geo, self.cfg, "stop"), *park_steps(self.cfg)[1:]]
+        self._start_runner(steps, After.STOPPED)
+
+    def _spot_near_tool(self) -> Pose2D | None:
+        assert self.plan is not None and self.plan.scene is not None
+        tool = self.commanded or self.tcp
+        assert tool is not None
+        return free_spot(self.perceived, self.plan.scene.workspace, self.geo, tool.yaw,
+                         (tool.x, tool.y), table_margin_of(self.plan.params))
+
+    def _set_down_then_park(self, block: int, where: Pose2D) -> None:
+        self.detail = f"{self.detail}; setting block {block} down at ({where.x:.3f}, " \
+                      f"{where.y:.3f}) first"
+        self.expected[block] = where
+        yaw = (self.commanded or self.tcp).yaw
+        steps = [*set_down_steps(block, where, yaw, self.geo, self.cfg),
+                 *park_steps(self.cfg)[1:]]
+        self._start_runner(steps, After.STOPPED)

@@ -1,0 +1,114 @@
+"""The executor's states, the one table of the changes between them, and its small records.
+
+``State`` is what ``/executor/status`` publishes; ``TRANSITIONS`` lists every change the
+executor may make, with its reason (``ExecutorCore._enter`` refuses any other; docs/nodes.md
+prints the table). ``After`` says what a motion script leads to, ``Purpose`` what a frame is
+judged against.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+from msgs_py import Pose2D
+from msgs_py.placement import Placement
+from nodes.executor.motion import ToolPose
+
+
+class State(enum.Enum):
+    """What the executor is doing; the value is the word ``/executor/status`` publishes."""
+
+    IDLE = "idle"
+    OBSERVING = "observing"
+    RUNNING = "running"
+    RECOVERING = "recovering"
+    REPLANNING = "replanning"
+    STOPPING = "stopping"
+    STOPPED = "stopped"
+    DONE = "done"
+    FAILED = "failed"
+
+
+#: Every state change, and why it happens (the executor refuses any other).
+TRANSITIONS: dict[State, dict[State, str]] = {
+    State.IDLE: {
+        State.OBSERVING: "a plan and a start: look before acting",
+        State.RECOVERING: "the fingers hold a block at start-up: set it down",
+        State.STOPPED: "stop requested",
+    },
+    State.OBSERVING: {
+        State.OBSERVING: "look again (from the park pose)",
+        State.RUNNING: "the world is as expected: the next action",
+        State.RECOVERING: "a block outside the workspace, or one in the fingers: deal with it",
+        State.REPLANNING: "the world drifted, or a plan must be checked against it",
+        State.DONE: "every block verified at its goal",
+        State.IDLE: "the plan is gone",
+        State.STOPPING: "a block is gone, or stop requested",
+    },
+    State.RUNNING: {
+        State.OBSERVING: "action done: look",
+        State.RECOVERING: "a grasp fault: stop, let go, look",
+        State.STOPPING: "an error, or stop requested",
+    },
+    State.RECOVERING: {
+        State.OBSERVING: "recovery done: look again",
+        State.RECOVERING: "a fault while recovering",
+        State.STOPPING: "no way to recover, or stop requested",
+    },
+    State.REPLANNING: {
+        State.RUNNING: "a plan that starts from the perceived world",
+        State.REPLANNING: "that plan does not fit, or none came",
+        State.DONE: "no correction possible, residual within the acceptance tolerance",
+        State.STOPPING: "too many replans, or stop requested",
+    },
+    State.STOPPING: {
+        State.STOPPED: "parked after a stop request",
+        State.FAILED: "parked after an error",
+        State.STOPPING: "set down what the fingers hold first",
+    },
+    State.STOPPED: {State.IDLE: "start requested"},
+    State.DONE: {State.IDLE: "a new plan"},
+    State.FAILED: {State.IDLE: "a new plan"},
+}
+
+
+class After(enum.Enum):
+    """What a motion script leads to when it has run to its end."""
+
+    LOOK = "look"  #: the arm is out of view: take a frame
+    ACTION_DONE = "action done"  #: the action ran (and the arm is at the look pose, or not)
+    HOVERING = "hovering"  #: above the next block while the camera's frame is judged
+    IDLE_PARKED = "idle parked"
+    RECOVERED = "recovered"  #: a recovery ran: look again
+    STOPPED = "stopped"  #: parked after a stop or an error
+
+
+class Purpose(enum.Enum):
+    """Why a frame is taken: what the detection is judged against."""
+
+    START = "start"  #: before the first action: the plan must start from the world
+    AFTER_ACTION = "after action"  #: every block where it should be after the action
+    RESUME = "resume"  #: after a stop: as before
+    RECOVERY = "recovery"  #: after a fault: where are the blocks now?
+    GOAL = "goal"  #: after the last action: every block at its goal
+
+
+@dataclass
+class Outputs:
+    """Side effects the node must carry out after a tick."""
+
+    setpoint: ToolPose | None = None
+    gripper: float | None = None
+    trigger_camera: bool = False
+    request_replan: bool = False
+    placement: Placement | None = None  #: a block the arm just set down, and where
+    log: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Held:
+    """A block in the fingers: which (None: not known) and where it was picked up."""
+
+    block: int | None
+    picked_from: Pose2D | None = None
