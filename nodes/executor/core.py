@@ -613,6 +613,8 @@ class ExecutorCore(FaultHandling):
         plan = self.plan
         assert plan is not None
         self.metrics["actions_executed"] += 1
+        kind = f"{plan.actions[self.index].type}_executed"  # pick_place_executed, push_executed
+        self.metrics[kind] = self.metrics.get(kind, 0.0) + 1.0
         self._grasp_tries = 0
         self.held = None
         looked_from_here = self._looks_after(self.index) and plan.scene is not None
