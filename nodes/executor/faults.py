@@ -87,15 +87,20 @@ class FaultHandling(_Base):
         self.held = None
 
     def _on_grasp_fault(self, fault: GraspFault) -> None:
-        """Stop the motion, let go of whatever the fingers hold, look again."""
+        """Stop the motion, let go of whatever the fingers hold, look again (a stray command
+        that left a held block held is only undone)."""
         assert self.runner is not None
         self.metrics["faults"] += 1
         key = f"faults_{fault.kind.name.lower()}"
         self.metrics[key] = self.metrics.get(key, 0.0) + 1.0
-        self._log(f"{fault.describe()}: stopping, letting go, looking again")
-        self.detail = fault.describe()
         if fault.kind is FaultKind.MISFIRE and self.supervisor.commanded is not None:
             self._out.gripper = self.supervisor.commanded  # ours again, at once
+            if self.supervisor.expect is Expect.HOLD and self.supervisor.holds_block():
+                self.supervisor.reassert(self._now)
+                self._log(f"{fault.describe()}: the block is still held; command restored")
+                return
+        self._log(f"{fault.describe()}: stopping, letting go, looking again")
+        self.detail = fault.describe()
         block = self.held.block if self.held is not None else None
         if fault.kind in (FaultKind.MISSED, FaultKind.MISFIRE):
             self._grasp_tries += 1

@@ -99,6 +99,10 @@ class GraspSupervisor:
         self.commanded, self._commanded_at = opening, at
         self.expect = Expect.NOTHING
 
+    def reassert(self, at: float) -> None:
+        """The executor sent its own command again at ``at`` (s), after a stray one."""
+        self._commanded_at = at
+
     def expect_open(self) -> None:
         self.expect, self.block = Expect.OPEN, None
 

@@ -560,3 +560,28 @@ def test_the_state_table_covers_every_state_and_names_every_change():
     from msgs_py import EXECUTOR_STATES
 
     assert {s.value for s in State} == set(EXECUTOR_STATES)
+
+
+def test_a_stray_open_command_while_carrying_drops_the_block_and_is_recovered():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    gripper = Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("carry"))
+    gripper.command(0.085)  # another program opens the gripper: the block falls
+    world.on_replan = lambda: None
+    world.run(lambda: core.state is State.REPLANNING)
+    assert core.metrics["faults"] >= 1
+    assert gripper.holding is None
+
+
+def test_a_stray_close_while_carrying_is_undone_and_the_carry_goes_on():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    gripper = Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("carry"))
+    gripper.command(0.02)  # closes further on the held block: nothing happens to it
+    world.run(lambda: core.state is State.DONE)
+    assert core.metrics["faults_misfire"] == 1 and world.replan_requests == 0
+    assert any("still held; command restored" in line for line in world.logs)
