@@ -29,6 +29,16 @@ GRAVITY = 9.81
 DISTURB_SPEED = 0.05
 DISTURB_TIMEOUT_S = 10.0
 DISTURB_MAX_FORCE = 5.0
+#: Armed faults (``arm_fault``): a held block higher than LIFTED_Z (m, its centre) is lifted;
+#: slippery pads for DROP_S let it fall out, for SLIP_S slide in the fingers (s, measured);
+#: a missed grasp knocks the block MISS_DISTANCE (m) aside as the fingers come down.
+ARMED_FAULTS = ("drop", "slip", "miss")
+LIFTED_Z = 0.045
+DROP_S = 0.4
+SLIP_S = 0.05
+MISS_DISTANCE = 0.045  # a block width and a finger pad across the closing axis, and a margin
+MISS_SPEED = 0.25
+MISS_Z = (0.06, 0.12)  # TCP heights where the open fingers hover above the block
 #: N, strength of the constraint that couples the fingers (well above any grip force).
 FINGER_COUPLING_FORCE = 500.0
 #: The gripper reports "at the requested position" within this of it (m), and "moving" while
@@ -43,6 +53,7 @@ class _Disturbance:
     direction: np.ndarray
     distance: float
     t_end: float
+    speed: float = DISTURB_SPEED
 
 
 class SimWorld:
@@ -168,7 +179,7 @@ class SimWorld:
         self._gripper_queue: list[tuple[float, float]] = []  # (time due, gap) on the way
         self._pad_friction_restore: float | None = None  # a fault's slippery pads end then
         self._slip_until = 0.0
-        self._twist: tuple[int, float, float] | None = None
+        self.armed: str | None = None  # a fault waiting for its moment (arm_fault)
         self.disturbances: dict[int, _Disturbance] = {}
         self.step_count = 0
         self.monitor = EventMonitor(self.scene.workspace, rm.TABLE_EXTENT, rm.BLOCK_SIZE,
@@ -217,8 +228,9 @@ class SimWorld:
                 self.robot, j, pybullet.POSITION_CONTROL, targetPosition=self.gripper_gap / 2,
                 force=self.config.grip_force, maxVelocity=self.config.gripper_speed / 2)
 
-    def disturb(self, block_id: int, dx: float, dy: float) -> None:
-        """Push a block horizontally (an external force, physics only) by about (dx, dy)."""
+    def disturb(self, block_id: int, dx: float, dy: float, speed: float = DISTURB_SPEED) -> None:
+        """Push a block horizontally (an external force, physics only) by about (dx, dy), at
+        about ``speed`` (m/s)."""
         if block_id not in self.block_bodies:
             raise ValueError(f"no block with id {block_id}")
         vec = np.array([dx, dy], dtype=float)
@@ -229,9 +241,47 @@ class SimWorld:
             return
         pos = self._block_position(block_id)
         self.disturbances[block_id] = _Disturbance(pos[:2].copy(), vec / distance, distance,
-                                                   self.time_s + DISTURB_TIMEOUT_S)
+                                                   self.time_s + DISTURB_TIMEOUT_S, speed)
 
     # --- faults (what a real cell meets; each one physical) -------------------------------------
+    def arm_fault(self, kind: str) -> None:
+        """Make a fault happen at the right moment of the next action:
+
+        * ``drop``: the next block lifted more than LIFTED_Z off the table slips out of the
+          fingers (slippery pads for DROP_S);
+        * ``slip``: ... slides in the fingers but stays held (slippery pads for SLIP_S);
+        * ``miss``: the next block the open fingers come down on is knocked MISS_DISTANCE
+          aside just before they close on it.
+        """
+        if kind not in ARMED_FAULTS:
+            raise ValueError(f"unknown armed fault '{kind}'; known: {sorted(ARMED_FAULTS)}")
+        self.armed = kind
+
+    def _check_armed(self) -> None:
+        kind = self.armed
+        if kind in ("drop", "slip"):
+            block = self.held_block()
+            if block is not None and self._block_position(block)[2] > LIFTED_Z:
+                self.slippery_pads(0.0, DROP_S if kind == "drop" else SLIP_S)
+                self._fault_fired(kind, block)
+        elif kind == "miss":
+            tcp, quat = self.tcp_pose()
+            closing = self.client.getMatrixFromQuaternion(quat)[0::3][:2]  # the tool's x axis
+            for block in list(self.block_bodies):
+                pos = self._block_position(block)
+                over = math.hypot(tcp[0] - pos[0], tcp[1] - pos[1]) < 0.01
+                if over and MISS_Z[0] < tcp[2] < MISS_Z[1] and self.gripper_gap > rm.BLOCK_SIZE:
+                    # aside across the closing axis, far enough for the fingers to miss it
+                    self.disturb(block, -closing[1] * MISS_DISTANCE, closing[0] * MISS_DISTANCE,
+                                 speed=MISS_SPEED)
+                    self._fault_fired(kind, block)
+                    break
+
+    def _fault_fired(self, kind: str, block: int) -> None:
+        self.armed = None
+        self.monitor.events.append({"t": round(self.time_s, 4), "type": f"fault_{kind}",
+                                    "block": block})
+
     def held_block(self) -> int | None:
         """The block both fingers touch (the one in the gripper), or None."""
         touching: dict[int, set[int]] = {}
@@ -251,25 +301,6 @@ class SimWorld:
             self._pad_friction_restore = rm.FRICTION_PAD
         self._set_pad_friction(rm.FRICTION_PAD * factor)
         self._slip_until = self.time_s + seconds
-
-    def twist_held(self, torque: float, seconds: float) -> int | None:
-        """A slip: the held block is twisted about the vertical by ``torque`` (N m) for
-        ``seconds`` while the pads grip at half their friction (a knock on a greasy block);
-        it turns in the fingers but stays held. Returns the block, or None if none is held."""
-        block = self.held_block()
-        if block is None:
-            return None
-        self.slippery_pads(0.5, seconds)
-        self._twist = (block, torque, self.time_s + seconds)
-        return block
-
-    def _apply_twist(self) -> None:
-        block, torque, until = self._twist
-        if self.time_s >= until or block not in self.block_bodies:
-            self._twist = None
-            return
-        self.client.applyExternalTorque(self.block_bodies[block], -1, (0.0, 0.0, torque),
-                                        pybullet.WORLD_FRAME)
 
     def _set_pad_friction(self, mu: float) -> None:
         """Pad friction ``mu``; friction anchors (which pin contacts regardless of the
@@ -315,8 +346,8 @@ class SimWorld:
                 targetVelocities=v, forces=rm.JOINT_TORQUE_LIMIT)
             if self.disturbances:
                 self._push_disturbed()
-            if self._twist is not None:
-                self._apply_twist()
+            if self.armed is not None and self.step_count % self._contact_every == 0:
+                self._check_armed()
             c.stepSimulation()
             self.step_count += 1
             if self.step_count % self._contact_every == 0:
@@ -333,7 +364,7 @@ class SimWorld:
             if moved + braking >= d.distance or self.time_s > d.t_end:
                 del self.disturbances[block_id]
                 continue
-            force = rm.BLOCK_MASS * (rm.MU_WOOD_MDF * GRAVITY + 20.0 * (DISTURB_SPEED - speed))
+            force = rm.BLOCK_MASS * (rm.MU_WOOD_MDF * GRAVITY + 20.0 * (d.speed - speed))
             force = min(max(force, 0.0), DISTURB_MAX_FORCE)
             f = (force * d.direction[0], force * d.direction[1], 0.0)
             c.applyExternalForce(body, -1, f, pos.tolist(), pybullet.WORLD_FRAME)

@@ -81,3 +81,27 @@ def test_a_gripper_command_takes_effect_after_its_latency(world_factory):
     assert world.gripper_status()[1] == 0.085  # not there yet
     world.step(round(0.06 * 240))
     assert world.gripper_status()[1] == 0.03
+
+
+def test_armed_faults_strike_at_their_moment(world_factory):
+    """Armed drop: the block falls once lifted. Armed miss: the open fingers come down on
+    nothing (the block was knocked aside) and close to zero."""
+    world, reports, _ = carry_with(world_factory, lambda w: None)
+    assert world.armed is None
+    world, reports, _ = carry_with(world_factory, lambda w: w.arm_fault("drop"))
+    assert any(gap < 0.0508 - 0.002 for _, gap, _, _ in reports[:10])
+    assert any(e["type"] == "fault_drop" for e in world.monitor.events)
+
+    world = world_factory([(0, START.x, START.y, START.theta)])
+    world.step(24)
+    world.arm_fault("miss")
+    closed = []
+
+    def after_grip(w, label):
+        if label.endswith(": lift"):
+            closed.append(w.gripper_status())
+
+    play(world, action_steps(PickPlace(0, START, GOAL, 0), START, GEO, CFG), CFG, after_grip)
+    gap, _, obj = closed[0]
+    assert gap < 0.005 and obj == 3  # at the requested position: nothing in the fingers
+    assert world.block_poses()[0].pose.distance_to(START) > 0.03
