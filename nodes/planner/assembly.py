@@ -23,7 +23,7 @@ import numpy as np
 from msgs_py import Pose2D
 from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
 from nodes.planner.context import PlanContext
-from nodes.planner.geometry import Obstacles
+from nodes.planner.geometry import Obstacles, mask_to_int
 
 #: Push lengths (in block sizes) tried when testing whether a slot can be pushed into (those
 #: up to the roadmap's push_max_distance).
@@ -33,7 +33,7 @@ PUSH_STEPS = (0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0
 def _masks(obstacles: Obstacles, corners: np.ndarray) -> list[int]:
     """Per row of ``corners`` (K, m, 4, 2), the bit mask of slots it overlaps (Python ints)."""
     _, mask = obstacles.query(corners)
-    return [int(v) for v in mask]
+    return [mask_to_int(row) for row in mask]
 
 
 class Assembly:

@@ -5,7 +5,8 @@ vectorised over K poses. ``Obstacles`` answers bulk collision queries with one s
 STRtree query. A query separates *fixed* blocks (placed, not in O_R: any overlap
 forbids the action) from *movable* ones (in O_R: overlaps are allowed and counted, Nc), the
 latter as a bit mask over the scene's block ids so that the union of the blocks hit along a
-path is a bitwise OR and Nc a popcount.
+path is a bitwise OR and Nc a popcount. A mask is a row of ``words(n)`` uint64 words (bit b of
+the set is bit b % 64 of word b // 64), so a scene may hold any number of blocks.
 """
 
 from __future__ import annotations
@@ -19,8 +20,20 @@ import shapely
 from msgs_py.cell import INSIDE_TOL
 from msgs_py.footprint import overlapping_pairs, to_polygons
 
-#: Most blocks a scene may hold: movable-block sets are uint64 bit masks.
-MAX_BLOCKS = 64
+WORD = 64
+
+
+def words(n_bits: int) -> int:
+    """uint64 words a mask of ``n_bits`` bits needs (at least one)."""
+    return max(1, -(-n_bits // WORD))
+
+
+def bit_mask(bits, n_words: int) -> np.ndarray:
+    """The mask (n_words,) with the given bit indices set."""
+    out = np.zeros(n_words, dtype=np.uint64)
+    for b in bits:
+        out[b // WORD] |= np.uint64(1) << np.uint64(b % WORD)
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,16 +65,20 @@ class Obstacles:
         corners: their footprints (n, 4, 2).
         movable: which of them are in O_R.
         bit_of: block id -> bit index in the movable masks (shared by a whole plan).
+        n_words: words per mask (default: enough for the largest bit in ``bit_of``).
     """
 
     def __init__(self, ids: Sequence[int], corners: np.ndarray, movable: Sequence[bool],
-                 bit_of: dict[int, int]) -> None:
+                 bit_of: dict[int, int], n_words: int | None = None) -> None:
         self.ids = np.asarray(ids, dtype=np.int64)
         self.polygons = to_polygons(np.asarray(corners).reshape(-1, 4, 2))
         self.movable = np.asarray(movable, dtype=bool).reshape(-1)
-        self.bits = np.array([np.uint64(1) << np.uint64(bit_of[int(i)]) if m else 0
-                              for i, m in zip(self.ids, self.movable, strict=True)],
-                             dtype=np.uint64)
+        self.n_words = n_words or words(max(bit_of.values(), default=-1) + 1)
+        self.bits = np.zeros((len(self.ids), self.n_words), dtype=np.uint64)
+        for k, (i, m) in enumerate(zip(self.ids, self.movable, strict=True)):
+            if m:
+                bit = bit_of[int(i)]
+                self.bits[k, bit // WORD] = np.uint64(1) << np.uint64(bit % WORD)
         self.tree = shapely.STRtree(self.polygons)
 
     def _pairs(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -77,7 +94,7 @@ class Obstacles:
 
         Returns:
             fixed_hit (K,) bool: the row overlaps a fixed block.
-            movable_mask (K,) uint64: bits of the movable blocks the row overlaps.
+            movable_mask (K, W) uint64: bits of the movable blocks the row overlaps.
         """
         rows = corners.shape[0]
         parts = int(np.prod(corners.shape[1:-2], dtype=np.int64))
@@ -85,7 +102,7 @@ class Obstacles:
         row = left // max(parts, 1)
         fixed = np.zeros(rows, dtype=bool)
         fixed[row[~self.movable[right]]] = True
-        mask = np.zeros(rows, dtype=np.uint64)
+        mask = np.zeros((rows, self.n_words), dtype=np.uint64)
         mov = self.movable[right]
         np.bitwise_or.at(mask, row[mov], self.bits[right[mov]])
         return fixed, mask
@@ -96,11 +113,17 @@ class Obstacles:
         return sorted({int(self.ids[r]) for r in right if not self.movable[r]})
 
 
-def mask_to_ids(mask: int, ids_by_bit: Sequence[int]) -> list[int]:
-    """Block ids whose bits are set in ``mask``."""
-    mask = int(mask)
-    return [ids_by_bit[b] for b in range(len(ids_by_bit)) if mask >> b & 1]
+def mask_to_int(mask: np.ndarray) -> int:
+    """One mask (W,) as a Python int (bit b of the set is bit b of the int)."""
+    return sum(int(w) << (WORD * k) for k, w in enumerate(np.asarray(mask).reshape(-1)))
+
+
+def mask_to_ids(mask: np.ndarray, ids_by_bit: Sequence[int]) -> list[int]:
+    """Block ids whose bits are set in ``mask`` (W,), in bit order."""
+    value = mask_to_int(mask)
+    return [ids_by_bit[b] for b in range(len(ids_by_bit)) if value >> b & 1]
 
 
 def popcount(masks: np.ndarray) -> np.ndarray:
-    return np.bitwise_count(masks).astype(np.int64)
+    """Bits set per mask (..., W) -> (...)."""
+    return np.bitwise_count(masks).sum(axis=-1, dtype=np.int64)

@@ -15,8 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from msgs_py import MessageError, PickPlace, Plan, Scene
-from msgs_py.actions import Action
+from msgs_py import MessageError, Plan, Scene
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext, at_pose
 from nodes.planner.search import PlanningFailure, Search
@@ -46,19 +45,6 @@ def lower_bound(scene: Scene, config: PlannerConfig) -> int:
     return sum(not at_pose(scene.block(b).pose, goal, config.goal_tolerance_xy,
                            config.goal_tolerance_yaw, yaw_exact)
                for b, goal in scene.goal_assignment().items())
-
-
-def plan_cost(actions: list[Action], config: PlannerConfig) -> float:
-    """The plan's cost under the edge cost model (collisions are zero in a final plan)."""
-    cost = 0.0
-    for a in actions:
-        moved = a.from_.distance_to(a.to)
-        if isinstance(a, PickPlace):
-            cost += config.a1 + (config.a_dist * moved if config.distance_cost else 0.0)
-        else:
-            cost += config.a2 + ((config.a_dist + config.a_push_len) * moved
-                                 if config.distance_cost else 0.0)
-    return cost
 
 
 def check_scene(scene: Scene) -> None:
@@ -109,7 +95,7 @@ def plan_scene(scene: Scene, config: PlannerConfig, plan_id: str | None = None,
         params=config.to_params(scene.block_size),
         seed=config.seed,
         planning_time_s=elapsed,
-        cost=plan_cost(actions, config),
+        cost=ctx.cost.plan(actions),
         plan_id=plan_id or uuid.uuid4().hex[:12],
         scene=scene,
     )

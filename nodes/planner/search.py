@@ -33,7 +33,7 @@ from msgs_py.actions import Action
 from msgs_py.footprint import block_corners, grasp_finger_corners
 from nodes.planner.assembly import Assembly
 from nodes.planner.context import PlanContext, State, at_pose, nearest_goal_yaw
-from nodes.planner.geometry import Obstacles
+from nodes.planner.geometry import Obstacles, mask_to_int
 from nodes.planner.roadmap import NoRoute, Route, plan_route, uniform_draw
 
 #: Candidate clearing poses drawn per batch, and batches per relaxation level.
@@ -199,7 +199,7 @@ class Search:
         foot = block_corners([p.x for p in poses], [p.y for p in poses],
                              [p.theta for p in poses], geom.block_size)
         _, mask = tree.query(foot[:, None])
-        return {b for b, m in zip(cand, mask, strict=True) if int(m) & ~(1 << bits[b])}
+        return {b for b, m in zip(cand, mask, strict=True) if mask_to_int(m) & ~(1 << bits[b])}
 
     # --- helpers ----------------------------------------------------------------------------
     def check_time(self) -> None:

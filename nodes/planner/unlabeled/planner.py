@@ -22,7 +22,8 @@ from msgs_py.actions import Action
 from nodes.planner.assembly import Assembly
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
-from nodes.planner.planner import PlanOutcome, plan_cost
+from nodes.planner.planner import PlanOutcome
+from nodes.planner.transfer import CostModel
 from nodes.planner.unlabeled.cell_geometry import CellSpace
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.goal_check import on_slot, unfilled_slots
@@ -92,7 +93,7 @@ def finish_plan(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
     params = config.to_params(scene.block_size)
     params.update(ucfg.to_params())
     plan = Plan(actions=tuple(actions), planner=planner, params=params, seed=config.seed,
-                planning_time_s=elapsed, cost=plan_cost(actions, config),
+                planning_time_s=elapsed, cost=CostModel.of(config).plan(actions),
                 plan_id=plan_id or uuid.uuid4().hex[:12], scene=scene)
     report = validate_plan(plan)
     if not report.ok:
