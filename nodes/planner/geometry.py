@@ -124,6 +124,13 @@ def mask_to_ids(mask: np.ndarray, ids_by_bit: Sequence[int]) -> list[int]:
     return [ids_by_bit[b] for b in range(len(ids_by_bit)) if value >> b & 1]
 
 
+def mask_to_bools(masks: np.ndarray, n_bits: int) -> np.ndarray:
+    """Masks (..., W) as booleans (..., n_bits): entry b is bit b."""
+    masks = np.ascontiguousarray(masks, dtype=np.uint64)
+    bits = np.unpackbits(masks.view(np.uint8), axis=-1, bitorder="little")
+    return bits[..., :n_bits].astype(bool)
+
+
 def popcount(masks: np.ndarray) -> np.ndarray:
     """Bits set per mask (..., W) -> (...)."""
     return np.bitwise_count(masks).sum(axis=-1, dtype=np.int64)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from msgs_py import MessageError
 from msgs_py.cell import ACTION_HEIGHTS
 from nodes.common.transforms import tool_down_matrix
 from nodes.sim.kinematics import solve_tcp_ik
@@ -114,3 +115,40 @@ def ur10e_reach(heights: tuple[float, ...] = ACTION_HEIGHTS,
     if not r_min < r_max:
         raise RuntimeError(f"no TCP position is reachable at all of the heights {heights}")
     return Reach(r_min, r_max)
+
+
+def check_scene_reach(scene, reach: Reach | None = None) -> None:
+    """Refuse a scene with a block or a goal slot out of the arm's reach, naming it.
+
+    Raises:
+        MessageError: the first block (``blocks[k]``) or slot (``goal.slots[k]``) whose
+            centre the TCP cannot reach with the tool pointing down.
+    """
+    reach = reach or ur10e_reach()
+    for k, block in enumerate(scene.blocks):
+        if not reach.contains((block.x, block.y)):
+            raise MessageError(f"blocks[{k}]", (block.x, block.y), _far(
+                f"block {block.id} stands", block.x, block.y, reach))
+    if scene.goal is None:
+        return
+    owners = _slot_owners(scene)
+    for k, slot in enumerate(scene.goal.slot_poses(scene.block_size)):
+        if not reach.contains((slot.x, slot.y)):
+            what = (f"the goal of block {owners[k]} lies" if owners[k] is not None
+                    else f"goal slot {k} lies")
+            raise MessageError(f"goal.slots[{k}]", (slot.x, slot.y),
+                               _far(what, slot.x, slot.y, reach))
+
+
+def _far(what: str, x: float, y: float, reach: Reach) -> str:
+    return (f"{what} {np.hypot(x, y):.2f} m from the robot base, out of the UR10e's reach "
+            f"with the tool pointing down ({reach.describe()})")
+
+
+def _slot_owners(scene) -> list[int | None]:
+    """Block id per goal slot for a labeled goal (None for an unlabeled one)."""
+    slots = scene.goal.slot_poses(scene.block_size)
+    if not scene.goal.labeled:
+        return [None] * len(slots)
+    owner = {(round(p.x, 9), round(p.y, 9)): b for b, p in scene.goal_assignment().items()}
+    return [owner.get((round(p.x, 9), round(p.y, 9))) for p in slots]

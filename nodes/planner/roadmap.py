@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,30 +23,11 @@ from msgs_py.actions import Action
 from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
 from nodes.planner.context import PlanContext, State
 from nodes.planner.geometry import Obstacles, mask_to_ids, popcount
+from nodes.planner.pirs import NoRoute, Route
 from nodes.planner.transfer import grasp_checks, push_checks, push_line
 
 #: Sampling gives up after this many rounds of rejection.
 SAMPLE_ROUNDS = 8
-
-
-@dataclass(frozen=True)
-class Route:
-    """A roadmap path for one block: its actions, the movable blocks it hits (O_b, in order
-    of first contact), its cost, and the footprints it touches (corners (R, 4, 2))."""
-
-    actions: tuple[Action, ...]
-    blocked: tuple[int, ...]
-    cost: float
-    end: Pose2D
-    region: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2)))
-
-
-@dataclass(frozen=True)
-class NoRoute:
-    """Why no path exists even through movable blocks."""
-
-    reason: str
-    fixed_blockers: tuple[int, ...] = ()
 
 
 def sample_poses(ctx: PlanContext, obstacles: Obstacles, n: int, rng: np.random.Generator,

@@ -161,6 +161,21 @@ def push_checks(ctx, obstacles: Obstacles, starts: np.ndarray, directions: np.nd
     return ~fixed & inside & reach, hit
 
 
+def pick_place_between(block: int, current: Pose2D, start_yaw: float, end: Pose2D,
+                       axis_from: int, axis_to: int) -> PickPlace:
+    """The pick-and-place of ``block`` standing at ``current`` whose fingers close along the
+    world axis ``start_yaw + axis_from * 90 deg`` there and along ``end.theta + axis_to *
+    90 deg`` at ``end``. A footprint repeats every quarter turn, so ``start_yaw`` and
+    ``end.theta`` may be any yaw of the block's class; the block is set down at the yaw of
+    ``end``'s class that needs the least turn."""
+    quarter = 0.5 * math.pi
+    alpha = start_yaw + axis_from * quarter
+    grasp = round(math.remainder(alpha - current.theta, math.pi) / quarter) % 2
+    beta = end.theta + axis_to * quarter - grasp * quarter
+    yaw = current.theta + math.remainder(beta - current.theta, math.pi)
+    return PickPlace(block, current, Pose2D(end.x, end.y, yaw), grasp)
+
+
 @dataclass(frozen=True)
 class DirectTransfer:
     """A feasible one-action move: ``kind`` "pick_place" (with ``grasp``) or "push"."""
@@ -202,4 +217,4 @@ def direct_transfers(ctx, occupied, start: Pose2D, end: Pose2D, movable: Iterabl
 
 
 __all__ = ["CostModel", "DirectTransfer", "Grasps", "direct_transfers", "grasp_checks",
-           "push_checks", "push_line", "push_tcp_path"]
+           "pick_place_between", "push_checks", "push_line", "push_tcp_path"]

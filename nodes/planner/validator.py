@@ -7,7 +7,8 @@ vectorised corner arithmetic), swept areas are convex hulls of the start and end
 an obstacle (the planner distinguishes fixed from movable). Geometry comes only from the
 plan's own ``params``, so a plan read back from JSON is checked on its own.
 
-For every action: the block exists and stands at ``from``; a pick-and-place's fingers at both
+For every action: the block exists and stands at ``from``; the action moves it (``to`` is not
+``from`` again, yaw modulo 90 degrees unless yaw_exact); a pick-and-place's fingers at both
 ends and its block at ``to`` overlap no other block, the open gripper fits the stroke; a
 push goes along a face normal of the block, keeps the yaw, and the swept block and fingertips
 overlap no other block; the block stays in the workspace and the fingers on the table. At
@@ -108,6 +109,15 @@ class _Replay:
         if abs(p["block_size"] - self.scene.block_size) > 1e-12:
             self.errors.append("params: block_size differs from the scene's")
 
+    def check_moves(self, k: int, a: PickPlace | Push) -> None:
+        """An action whose block ends where it started (the cube looks the same every quarter
+        turn) does nothing but cost time and risk."""
+        goal = self.scene.goal
+        period = 2 * math.pi if goal is not None and goal.yaw_exact else 0.5 * math.pi
+        if (math.hypot(a.to.x - a.from_.x, a.to.y - a.from_.y) <= POSE_TOL
+                and abs(math.remainder(a.to.theta - a.from_.theta, period)) <= POSE_TOL):
+            self.errors.append(f"action {k}: block {a.block} ends where it started")
+
     def step(self, k: int, a: PickPlace | Push) -> None:
         if a.block not in self.poses:
             self.errors.append(f"action {k}: unknown block {a.block}")
@@ -117,6 +127,7 @@ class _Replay:
                 or abs(math.remainder(now.theta - a.from_.theta, 2 * math.pi)) > POSE_TOL):
             self.errors.append(f"action {k}: block {a.block} is at {now.to_dict()}, "
                                f"not at 'from' {a.from_.to_dict()}")
+        self.check_moves(k, a)
         self.inside(k, self.square(a.to), self.workspace, f"block {a.block} at 'to'")
         if isinstance(a, PickPlace):
             for where, pose in (("pick", a.from_), ("place", a.to)):

@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from msgs_py import PickPlace, Pose2D, Push
+from msgs_py import Pose2D, Push
 from msgs_py.actions import Action
 from msgs_py.cell import OVERLAP_AREA_TOL
 from msgs_py.footprint import (
@@ -44,6 +44,7 @@ from msgs_py.footprint import (
 )
 from msgs_py.poses import poses_to_array
 from nodes.planner.context import PlanContext
+from nodes.planner.transfer import pick_place_between
 from nodes.planner.unlabeled.rpg import Site, Transfer
 
 QUARTER = 0.5 * math.pi
@@ -383,11 +384,8 @@ class CellSpace:
                 act: Action = Push.between(block, current,
                                            Pose2D(step.end.x, step.end.y, current.theta))
             else:
-                alpha = step.start.theta + step.axis_from * QUARTER
-                grasp = round(math.remainder(alpha - current.theta, math.pi) / QUARTER) % 2
-                beta = step.end.theta + step.axis_to * QUARTER - grasp * QUARTER
-                yaw = current.theta + math.remainder(beta - current.theta, math.pi)
-                act = PickPlace(block, current, Pose2D(step.end.x, step.end.y, yaw), grasp)
+                act = pick_place_between(block, current, step.start.theta, step.end,
+                                         step.axis_from, step.axis_to)
             actions.append(act)
             current = act.to
         return actions, current

@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import heapq
 import itertools
-import time
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 
+from nodes.planner.budget import Budget
 from nodes.planner.unlabeled.rpg import (
     RearrangementPebbleGraph,
     Site,
@@ -87,10 +87,9 @@ class ArrangementGoal:
 class SearchConfig:
     b: int = 2  # extra empty nodes per RPG
     weight: float = 1.5  # A* weight on the heuristic
-    deadline: float = float("inf")  # time.monotonic() deadline
+    budget: Budget | None = None  # time and stop request (None: no limit)
     max_expansions: int = 5000
     max_proposals: int = 4  # RPGs proposed per expansion
-    should_stop: Callable[[], bool] | None = None  # polled per expansion: give up when True
 
 
 @dataclass
@@ -413,9 +412,9 @@ class HypergraphSearch:
         best_h = root.h
         best_goal: _Node | None = None
         while heap:
-            if cfg.should_stop is not None and cfg.should_stop():
+            if cfg.budget is not None and cfg.budget.stopped():
                 raise SearchFailure("stopped on request", self.stats)
-            out_of_time = time.monotonic() > cfg.deadline
+            out_of_time = cfg.budget is not None and cfg.budget.expired()
             if out_of_time or self.stats.expansions >= cfg.max_expansions:
                 if best_goal is not None:
                     return self.finish(best_goal)

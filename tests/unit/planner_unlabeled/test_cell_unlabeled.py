@@ -11,11 +11,11 @@ from msgs_py import BlockPose, Goal, GoalSlot, GridSpec, MessageError, Pose2D, S
 from nodes.common.scenes import random_scene
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
+from nodes.planner.dispatch import goal_kind, plan_goal
 from nodes.planner.planner import plan_scene
 from nodes.planner.unlabeled.baseline import assign_slots, plan_assignment
 from nodes.planner.unlabeled.cell_geometry import CellSpace
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.dispatch import goal_kind, plan_goal
 from nodes.planner.unlabeled.goal_check import unfilled_slots
 from nodes.planner.unlabeled.planner import plan_unlabeled
 from nodes.planner.unlabeled.retrieval import plan_retrieval
@@ -207,10 +207,10 @@ def test_random_scenes_of_every_size_plan_and_validate(k, density, seed):
 
 
 def test_a_failed_unlabeled_plan_falls_back_to_the_baseline(monkeypatch):
+    from nodes.planner import dispatch
     from nodes.planner.planner import PlanOutcome
-    from nodes.planner.unlabeled import dispatch
 
-    def fails(scene, config, ucfg, plan_id=None, should_stop=None):
+    def fails(scene, config, ucfg, budget=None, plan_id=None):
         return PlanOutcome(None, 0.01, 4, "no plan: made up")
 
     monkeypatch.setitem(dispatch.UNLABELED, "pebble_graphs", fails)
