@@ -173,19 +173,21 @@ class _Problem:
 
     def _bound(self, state: tuple[int, ...]) -> float:
         n = len(self.slots)
-        if self.labeled:
+        free_on_slots = 0
+        if self.labeled:  # blocks n.. have no goal: each on a slot must leave it
             todo = sum(1 << k for k in range(n) if state[k] != self.slots[k])
             exempt = [bool(self.on_line[state[k], k]) for k in range(n)]
             clears = [sum(1 << c for c in np.flatnonzero(self.covers[state[k]]) if c != k)
                       for k in range(n)]
             relax = Relaxation(self.asm, todo, exempt, clears, moved_cost=2.0)
+            free_on_slots = sum(bool(self.covers[u].any()) for u in state[n:])
         else:
             filled = set(state)
             todo = sum(1 << k for k in range(n) if self.slots[k] not in filled)
             off = [u for u in state if u not in self.slots]
             exempt = [bool(self.on_line[off, k].any()) for k in range(n)]
             relax = Relaxation(self.asm, todo, exempt, [0] * n, moved_cost=1.0)
-        return relax.best_start()[0] if todo else 0.0
+        return (relax.best_start()[0] if todo else 0.0) + free_on_slots
 
     def successors(self, state: tuple[int, ...]):
         p = len(self.ps.poses)
@@ -268,9 +270,11 @@ def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
         ValueError: more than ``MAX_BLOCKS`` blocks.
         ExactLimit: no optimum proven within ``max_expansions`` (or no plan in the set).
     """
-    ids = sorted(start)
-    if len(ids) > MAX_BLOCKS:
-        raise ValueError(f"the exact search takes at most {MAX_BLOCKS} blocks, got {len(ids)}")
+    if len(start) > MAX_BLOCKS:
+        raise ValueError(f"the exact search takes at most {MAX_BLOCKS} blocks, got "
+                         f"{len(start)}")
+    named = sorted(assignment) if assignment is not None else sorted(start)
+    ids = named + sorted(set(start) - set(named))  # blocks with a goal first
     starts = [start[b] for b in ids]
     ps = PoseSet(ctx, pose_set(ctx, starts, goal_slots))
     n_start = len(ids)
@@ -278,12 +282,12 @@ def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
     cfg = ctx.config
     state = tuple(range(n_start))
     if assignment is not None:  # labeled: slot k of the problem is block ids[k]'s goal
-        slots = [slot_idx[assignment[b]] for b in ids]
-        asm = Assembly(ctx, {k: goal_slots[assignment[b]] for k, b in enumerate(ids)})
+        slots = [slot_idx[assignment[b]] for b in named]
+        asm = Assembly(ctx, {k: goal_slots[assignment[b]] for k, b in enumerate(named)})
         # a block already on its goal stands on its goal's pose index
-        state = tuple(slots[k] if at_pose(starts[k], ps.poses[slots[k]], cfg.goal_tolerance_xy,
-                                          cfg.goal_tolerance_yaw, False) else k
-                      for k in range(n_start))
+        state = tuple(slots[k] if k < len(named) and at_pose(
+            starts[k], ps.poses[slots[k]], cfg.goal_tolerance_xy, cfg.goal_tolerance_yaw,
+            False) else k for k in range(n_start))
     else:
         slots = slot_idx
         asm = Assembly(ctx, dict(enumerate(goal_slots)))

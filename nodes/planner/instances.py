@@ -31,9 +31,7 @@ from nodes.common.scenes import scatter_blocks, workspace_for
 
 SETS = ("random", "enclosed", "rotated", "permuted")
 GAP = 0.003
-MIN_GAP = 0.002  # between scattered blocks, as random_scene
-#: Blocks scattered outside the grid keep this far from its slots (m): fingers' room.
-OUTSIDE_MARGIN = 0.02
+MIN_GAP = 0.002  # between scattered blocks and from the grid's slots, as random_scene
 ATTEMPTS = 20_000
 
 
@@ -56,14 +54,14 @@ def enclosed_slots(rows: int, cols: int) -> list[int]:
 
 def _scatter_outside(count: int, workspace: Workspace, taken: list[Pose2D],
                      rng: np.random.Generator, first_ids: list[int]) -> list[BlockPose]:
-    """``count`` blocks uniformly in the workspace, clear of ``taken`` by OUTSIDE_MARGIN
-    and of each other by MIN_GAP.
+    """``count`` blocks uniformly in the workspace, MIN_GAP clear of ``taken`` and of each
+    other.
 
     Raises:
         RuntimeError: no room for them.
     """
     s = BLOCK_SIZE
-    walls = [block_polygon(p.x, p.y, p.theta, s + 2 * OUTSIDE_MARGIN) for p in taken]
+    walls = [block_polygon(p.x, p.y, p.theta, s + 2 * MIN_GAP) for p in taken]
     placed: list[BlockPose] = []
     grown = []
     for k in range(count):

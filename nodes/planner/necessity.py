@@ -41,9 +41,11 @@ def _rebased(action: Action, current: Pose2D, flip: bool) -> Action | None:
     return Push.between(action.block, current, end)
 
 
-def _without(actions: list[Action], i: int, flip: bool = False) -> list[Action] | None:
+def _without(actions: list[Action], i: int, yaw_exact: bool, flip: bool = False
+             ) -> list[Action] | None:
     """``actions`` without action i, the block's later actions rebased (its next one grasped
-    along the other axis with ``flip``); None if impossible."""
+    along the other axis with ``flip``) and dropped too where that leaves them doing nothing
+    (away and back); None if impossible."""
     dropped = actions[i]
     out = list(actions[:i])
     current, first = dropped.from_, True
@@ -52,7 +54,10 @@ def _without(actions: list[Action], i: int, flip: bool = False) -> list[Action] 
             a = _rebased(a, current, flip and first)
             if a is None:
                 return None
-            current, first = a.to, False
+            first = False
+            if same_pose(a.from_, a.to, yaw_exact):
+                continue
+            current = a.to
         out.append(a)
     return out
 
@@ -93,7 +98,7 @@ def drop_no_ops(scene: Scene, actions: list[Action]) -> list[Action]:
     k = 0
     while k < len(out):
         if same_pose(out[k].from_, out[k].to, exact):
-            shorter = _without(out, k)
+            shorter = _without(out, k, exact)
             if shorter is not None:
                 out = shorter
                 continue
@@ -105,11 +110,12 @@ def necessary_actions(scene: Scene, params: Mapping[str, Any], actions: list[Act
                       ) -> list[Action]:
     """``actions`` with every action dropped that the plan does without (see module doc)."""
     out = drop_no_ops(scene, actions)
+    exact = _yaw_exact(scene)
     for i in range(len(out) - 1, -1, -1):
         if i >= len(out):
             continue
         for flip in (False, True):
-            candidate = _without(out, i, flip)
+            candidate = _without(out, i, exact, flip)
             if candidate is None or not _ends_on_goal(scene, params, out, i, candidate):
                 break
             if _valid_from(scene, params, _state_before(scene, out, i), candidate[i:]):
