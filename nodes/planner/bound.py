@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -55,6 +55,7 @@ class LowerBound:
     extra: int  # forced pushes, clears and moves of placed blocks on top
     exact: bool  # from the exact relaxation (else the cheaper bounds)
     keep: frozenset[int] = frozenset()  # blocks on their goal the relaxation's best plan keeps
+    relaxation: Relaxation | None = field(default=None, compare=False)  # when exact
 
 
 class Relaxation:
@@ -111,6 +112,18 @@ class Relaxation:
                 break
             sub = (sub - 1) & kept_all
         return best[0], -best[1]
+
+    def best_order(self, filled: int) -> list[int]:
+        """The slots in the order the relaxation's best completion from ``filled`` fills
+        them."""
+        out = []
+        full = (1 << self.n) - 1
+        while filled != full and self.to_go[filled] < INF:
+            c = min((c for c in range(self.n) if not filled >> c & 1),
+                    key=lambda c: (self.cost(c, filled) + self.to_go[filled | 1 << c], c))
+            out.append(c)
+            filled |= 1 << c
+        return out
 
     def extra(self, c: int, filled: int) -> float:
         """``cost`` beyond the one action a slot to fill is counted anyway."""
@@ -201,7 +214,7 @@ def _solve(relax: Relaxation, misplaced: int, extra_fixed: int, ids: list[int]
         if cost < INF:
             extra = round(cost) - misplaced + extra_fixed
             keep = frozenset(b for k, b in enumerate(ids) if kept >> k & 1)
-            return LowerBound(misplaced + extra, misplaced, extra, True, keep)
+            return LowerBound(misplaced + extra, misplaced, extra, True, keep, relax)
     tail = relax.tail()
     cycles = _disjoint_cycles(relax.clears, relax.todo)
     extra = max(int(tail) if tail < INF else 0, cycles) + extra_fixed

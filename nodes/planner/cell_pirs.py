@@ -24,31 +24,42 @@ from collections.abc import Collection, Iterable
 import numpy as np
 
 from msgs_py import Pose2D
-from msgs_py.footprint import block_corners
+from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.assembly import Assembly
+from nodes.planner.bound import INF, Relaxation
 from nodes.planner.context import PlanContext, State, at_pose, nearest_goal_yaw
 from nodes.planner.geometry import Obstacles, mask_to_int
 from nodes.planner.pirs import NoRoute, Route
 from nodes.planner.roadmap import plan_route, uniform_draw
-from nodes.planner.transfer import grasp_checks
+from nodes.planner.transfer import grasp_checks, push_checks
 
 #: Candidate clearing poses drawn per batch, and batches per relaxation level.
 CLEAR_BATCH = 48
 CLEAR_ROUNDS = 4
+#: Distances (block sizes) from its goal at which a block is cleared onto its push line.
+PUSH_START_STEPS = (1.1, 1.5, 2.0)
 
 
 class CellPirs:
     """The geometry of one labeled scene for pIRS (see the module docstring)."""
 
     def __init__(self, ctx: PlanContext, goals: dict[int, Pose2D], yaw_exact: bool,
-                 rng: np.random.Generator, assembly: Assembly | None = None) -> None:
+                 rng: np.random.Generator, assembly: Assembly | None = None,
+                 relaxation: Relaxation | None = None) -> None:
         self.ctx = ctx
         self.goals = goals
         self.yaw_exact = yaw_exact
         self.rng = rng
         self.assembly = assembly or Assembly(ctx, goals)
+        self.relax = relaxation
         cfg = ctx.config
-        order = self.assembly.order() if cfg.assembly_order else sorted(goals)
+        if relaxation is not None and cfg.assembly_order:
+            ids = self.assembly.ids
+            kept = sum(1 << k for k in range(len(ids)) if not relaxation.todo >> k & 1)
+            order = [ids[k] for k in relaxation.best_order(kept)]
+            order += [b for b in ids if b not in order]
+        else:
+            order = self.assembly.order() if cfg.assembly_order else sorted(goals)
         self.rank = {b: k for k, b in enumerate(order)}
 
     # --- goals and routes -------------------------------------------------------------------
@@ -77,11 +88,20 @@ class CellPirs:
         filled = asm.mask(placed)
         in_way = self.in_the_way(blocks, state, placed)
 
-        def estimate(b: int) -> tuple[int, int]:
+        def estimate(b: int) -> tuple[float, int]:
             now = 0 if self.at_goal(b, state) else (1 if asm.placeable(b, filled) else 2)
             saved = 1 if b in in_way else 0
-            return now - saved + asm.future_pushes(filled | asm.bit[b]), self.rank[b]
-        return [b for b in sorted(blocks, key=estimate) if asm.feasible(filled | asm.bit[b])]
+            return now - saved + self.ahead(filled | asm.bit[b]), self.rank[b]
+        return [b for b in sorted(blocks, key=estimate) if asm.feasible(filled | asm.bit[b])
+                and estimate(b)[0] < INF]
+
+    def ahead(self, filled: int) -> float:
+        """What the layout still costs once the slots ``filled`` are: the relaxation's least
+        completion (``bound``) where it was solved, else the pushes the greedy assembly
+        order still needs."""
+        if self.relax is not None:
+            return self.relax.to_go[filled]
+        return self.assembly.future_pushes(filled)
 
     def in_the_way(self, blocks: Iterable[int], state: State, placed: frozenset[int]
                    ) -> set[int]:
@@ -125,9 +145,31 @@ class CellPirs:
         goal = self.clear_goal(block, state, placed, region)
         if goal is not None:
             tries.append((goal, False))
+        tries += [(p, False) for p in self.push_starts(block, state, placed, region)]
         tries += [(p, True) for p in self.clear_poses(block, state, placed, region,
                                                       self.ctx.config.clear_attempts)]
         return tries
+
+    def push_starts(self, o: int, state: State, placed: frozenset[int], region: np.ndarray
+                    ) -> list[Pose2D]:
+        """Poses on a push line into ``o``'s own goal, out of the way, from which the push
+        in is free of the placed blocks: clearing ``o`` there makes the clear the first half
+        of its arrival (a slot walled in by its neighbours is only entered by a push)."""
+        if not self.ctx.config.clear_goal_first or o not in self.goals:
+            return []
+        ctx = self.ctx
+        goal = self.goal_pose(o, state)
+        d = np.repeat(face_normals(goal.theta), len(PUSH_START_STEPS), axis=0)
+        length = np.tile(np.array(PUSH_START_STEPS) * ctx.geom.block_size, 4)
+        q = np.column_stack([goal.x - d[:, 0] * length, goal.y - d[:, 1] * length,
+                             np.full(len(d), goal.theta)])
+        fixed = ctx.obstacles({b: state[b] for b in placed}, exclude=(o,), movable=())
+        ok, _ = push_checks(ctx, fixed, q, d, length)
+        poses = [Pose2D(*row) for row in q]
+        free = self._free_for(o, poses, state, placed, region, with_goals=True)
+        grasps = grasp_checks(ctx, ctx.obstacles(state, exclude=(o,), movable=()), q)
+        ok &= free & grasps.block_ok & grasps.fingers_ok.any(-1)
+        return [poses[k] for k in np.flatnonzero(ok)[:2]]
 
     def clear_goal(self, o: int, state: State, placed: frozenset[int], region: np.ndarray
                    ) -> Pose2D | None:

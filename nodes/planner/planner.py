@@ -67,7 +67,8 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
         return failed(budget, bound.value, f"block {walled[0]}: the goal layout walls in the "
                       f"slots of blocks {walled}: in no order can they be set down or pushed "
                       "in", walled[0], metrics)
-    space = CellPirs(ctx, goals, yaw_exact, np.random.default_rng(config.seed), assembly)
+    space = CellPirs(ctx, goals, yaw_exact, np.random.default_rng(config.seed), assembly,
+                     bound.relaxation)
     search = Pirs(space, frozenset(goals), frozenset(start) - frozenset(goals), budget,
                   PirsOptions(config.probe, config.max_depth))
     done = frozenset(b for b in goals if space.at_goal(b, start))
