@@ -56,6 +56,8 @@ class Assembly:
         self.push_in: list[list[tuple[int, list[int]]]] = [[] for _ in range(n)]
         self.push_tail: list[list[int]] = [[] for _ in range(n)]
         self._y = {b: (round(slots[b].y, 4), round(slots[b].x, 4), b) for b in self.ids}
+        self.index = {b: k for k, b in enumerate(self.ids)}
+        self._enter: list[list[int]] = [[] for _ in range(n)]
         if not n:
             return
         poses = np.array([[slots[b].x, slots[b].y, slots[b].theta] for b in self.ids])
@@ -68,6 +70,10 @@ class Assembly:
             self.set_down[c] = [mask_to_int(grasps.fingers_hit[c, g]) & own for g in range(2)
                                 if grasps.fingers_ok[c, g]]
         self._add_pushes(ctx, poses)
+        for c in range(n):
+            ways = self.set_down[c] + [sweep | g for sweep, grasps in self.push_in[c]
+                                       for g in grasps]
+            self._enter[c] = _minimal(ways)
 
     def _add_pushes(self, ctx, poses: np.ndarray) -> None:
         n, s = len(poses), ctx.geom.block_size
@@ -94,14 +100,11 @@ class Assembly:
     # --- tests on bit masks of filled slots -------------------------------------------------
     def placeable(self, block: int, filled: int) -> bool:
         """Pick-and-place straight onto the slot with the slots ``filled``."""
-        c = self.ids.index(block)
-        return any(m & filled == 0 for m in self.set_down[c])
+        return any(m & filled == 0 for m in self.set_down[self.index[block]])
 
     def enterable(self, c: int, filled: int) -> bool:
-        if any(m & filled == 0 for m in self.set_down[c]):
-            return True
-        return any(sweep & filled == 0 and any(g & filled == 0 for g in grasps)
-                   for sweep, grasps in self.push_in[c])
+        """Slot c can be set down on or pushed into with the slots ``filled``."""
+        return any(m & filled == 0 for m in self._enter[c])
 
     def mask(self, blocks) -> int:
         out = 0
@@ -135,12 +138,16 @@ class Assembly:
         pick-and-place-able slot that keeps the rest feasible first, else a push-only one."""
         out = []
         for _ in range(len(self.ids) - (filled & self.all).bit_count()):
-            rest = [b for b in self.ids if not filled & self.bit[b]]
-            rest.sort(key=lambda b: (not self.placeable(b, filled), self._y[b]))
-            pick = next((b for b in rest if self.feasible(filled | self.bit[b])), rest[0])
+            pick = self._next(filled)
             out.append(pick)
             filled |= self.bit[pick]
         return out
+
+    def _next(self, filled: int) -> int:
+        """The greedy order's next block from ``filled`` (not full)."""
+        rest = [b for b in self.ids if not filled & self.bit[b]]
+        rest.sort(key=lambda b: (not self.placeable(b, filled), self._y[b]))
+        return next((b for b in rest if self.feasible(filled | self.bit[b])), rest[0])
 
     def future_pushes(self, filled: int) -> int:
         """Push-only placements the greedy order still needs from ``filled`` (a lookahead)."""
@@ -152,6 +159,17 @@ class Assembly:
             return 0
         if not self.feasible(filled):
             return len(self.ids)
-        nxt = self.order(filled)[0]
+        nxt = self._next(filled)
         push = 0 if self.placeable(nxt, filled) else 1
         return push + self._future_pushes(filled | self.bit[nxt])
+
+
+def _minimal(masks: list[int]) -> list[int]:
+    """``masks`` without duplicates and without any that contains another (a way blocked
+    by the slots of a smaller one is never the only one open)."""
+    unique = sorted(set(masks), key=lambda m: (m.bit_count(), m))
+    out: list[int] = []
+    for m in unique:
+        if not any(k & ~m == 0 for k in out):
+            out.append(m)
+    return out

@@ -19,7 +19,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Iterator
 
 import numpy as np
 
@@ -38,6 +38,9 @@ CLEAR_BATCH = 48
 CLEAR_ROUNDS = 4
 #: Distances (block sizes) from its goal at which a block is cleared onto its push line.
 PUSH_START_STEPS = (1.1, 1.5, 2.0)
+#: Largest layout for which the greedy order's future pushes are looked ahead (their cost
+#: grows with the cube of the slot count).
+LOOKAHEAD_MAX = 30
 
 
 class CellPirs:
@@ -81,9 +84,10 @@ class CellPirs:
 
     # --- which block next -------------------------------------------------------------------
     def order(self, blocks: Collection[int], state: State, placed: frozenset[int]
-              ) -> list[int]:
+              ) -> Iterator[int]:
         if not self.ctx.config.assembly_order:
-            return sorted(blocks, key=lambda b: (not self.at_goal(b, state), b))
+            yield from sorted(blocks, key=lambda b: (not self.at_goal(b, state), b))
+            return
         asm = self.assembly
         filled = asm.mask(placed)
         in_way = self.in_the_way(blocks, state, placed)
@@ -92,16 +96,19 @@ class CellPirs:
             now = 0 if self.at_goal(b, state) else (1 if asm.placeable(b, filled) else 2)
             saved = 1 if b in in_way else 0
             return now - saved + self.ahead(filled | asm.bit[b]), self.rank[b]
-        return [b for b in sorted(blocks, key=estimate) if asm.feasible(filled | asm.bit[b])
-                and estimate(b)[0] < INF]
+        for b in sorted(blocks, key=estimate):  # feasibility tested as they are asked for
+            if estimate(b)[0] < INF and asm.feasible(filled | asm.bit[b]):
+                yield b
 
     def ahead(self, filled: int) -> float:
         """What the layout still costs once the slots ``filled`` are: the relaxation's least
         completion (``bound``) where it was solved, else the pushes the greedy assembly
-        order still needs."""
+        order still needs (up to ``LOOKAHEAD_MAX`` slots; beyond, the order's rank alone)."""
         if self.relax is not None:
             return self.relax.to_go[filled]
-        return self.assembly.future_pushes(filled)
+        if len(self.assembly.ids) <= LOOKAHEAD_MAX:
+            return self.assembly.future_pushes(filled)
+        return 0.0
 
     def in_the_way(self, blocks: Iterable[int], state: State, placed: frozenset[int]
                    ) -> set[int]:
@@ -125,18 +132,13 @@ class CellPirs:
         if not cand:
             return []
         ctx = self.ctx
-        after = {**state, block: end}
-        mine = ctx.obstacles({block: end}, exclude=(), movable=(block,))
-        out = []
-        for b in cand:
-            p = state[b]
-            here = np.array([[p.x, p.y, p.theta]])
-            if grasp_checks(ctx, ctx.obstacles(after, exclude=(b,), movable=()),
-                            here).fingers_ok.any():
-                continue
-            if grasp_checks(ctx, mine, here).fingers_hit.any():
-                out.append(b)
-        return out
+        after = ctx.obstacles({**state, block: end}, exclude=(), movable=(block,))
+        poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in cand])
+        grasps = grasp_checks(ctx, after, poses)
+        on_block = grasps.fingers_hit.any(-1)  # the only movable block is ``block``
+        free = (grasps.fingers_ok & ~on_block).any(-1)
+        return [b for b, f, hit in zip(cand, free, on_block.any(-1), strict=True)
+                if not f and hit]
 
     # --- where a blocking block goes ----------------------------------------------------------
     def clearing_poses(self, block: int, state: State, placed: frozenset[int],
@@ -182,7 +184,7 @@ class CellPirs:
             asm = self.assembly
             filled = asm.mask(placed)
             with_o = filled | asm.bit[o]
-            if not asm.feasible(with_o) or asm.future_pushes(with_o) > asm.future_pushes(filled):
+            if not asm.feasible(with_o) or self.ahead(with_o) > self.ahead(filled):
                 return None
         goal = self.goal_pose(o, state)
         if not self._free_for(o, [goal], state, placed, region, with_goals=False)[0]:

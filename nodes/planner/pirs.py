@@ -29,7 +29,8 @@ with a failure when the budget runs out or a block's clearing nests deeper than 
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterator, Mapping, Sequence
+import itertools
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -71,8 +72,9 @@ class PirsSpace(Protocol):
         """Cheapest path of ``block`` to ``target``; blocks in ``movable`` may be hit."""
 
     def order(self, blocks: Collection[int], state: State, placed: frozenset[int]
-              ) -> list[int]:
-        """``blocks`` to place next, best first; those that must not go next left out."""
+              ) -> Iterable[int]:
+        """``blocks`` to place next, best first (may be lazy); those that must not go next
+        left out."""
 
     def clearing_poses(self, block: int, state: State, placed: frozenset[int], region: Any
                        ) -> list[tuple[Any, bool]]:
@@ -185,18 +187,19 @@ class Pirs:
         already free of movable blocks goes first (it needs no clearing); the routes found
         are handed on so they are not planned twice."""
         space = self.space
-        order = list(space.order(remaining, state, placed))
+        rest = iter(space.order(remaining, state, placed))
+        head = list(itertools.islice(rest, self.options.probe))
         known: dict[int, Route | NoRoute] = {}
-        for b in order[:min(self.options.probe, len(order))]:
+        for b in head:
             if space.at_goal(b, state):
                 break
             route = self.route(b, state, space.goal_pose(b, state), remaining - {b} | self.free)
             known[b] = route
             if isinstance(route, Route) and not route.blocked:
-                order.remove(b)
-                order.insert(0, b)
+                head.remove(b)
+                head.insert(0, b)
                 break
-        for b in order:
+        for b in itertools.chain(head, rest):
             yield b, known.pop(b, None)
 
     # --- Algorithm 1 ------------------------------------------------------------------------
