@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 from shapely import affinity
 from shapely.geometry import Polygon, box
 
@@ -61,6 +62,11 @@ class _Replay:
         m = self.p["table_margin"]
         self.table = box(w.x_min - m, w.y_min - m, w.x_max + m, w.y_max + m)
         self.poses = {b.id: b.pose for b in scene.blocks}
+        self._squares: dict[int, tuple[Pose2D, Polygon]] = {}
+        self._order = sorted(self.poses)
+        self._row = {b: k for k, b in enumerate(self._order)}
+        self._bounds = np.array([self.square(self.poses[b]).bounds for b in self._order]
+                                ).reshape(-1, 4)
         self.errors: list[str] = []
 
     def square(self, pose: Pose2D) -> Polygon:
@@ -90,9 +96,26 @@ class _Replay:
             pads.append(ends[0].union(ends[1]).convex_hull)
         return swept_block, pads
 
+    def standing(self, block: int) -> Polygon:
+        """The footprint of a block where it stands (kept until it moves)."""
+        pose = self.poses[block]
+        known = self._squares.get(block)
+        if known is None or known[0] != pose:
+            known = (pose, self.square(pose))
+            self._squares[block] = known
+        return known[1]
+
+    def moved(self, block: int, pose: Pose2D) -> None:
+        self.poses[block] = pose
+        self._bounds[self._row[block]] = self.standing(block).bounds
+
     def hits(self, k: int, moving: int, shape: Polygon, what: str) -> None:
-        for other, pose in sorted(self.poses.items()):
-            if other != moving and shape.intersection(self.square(pose)).area > AREA_TOL:
+        x0, y0, x1, y1 = shape.bounds
+        b = self._bounds
+        near = (b[:, 0] <= x1) & (b[:, 2] >= x0) & (b[:, 1] <= y1) & (b[:, 3] >= y0)
+        for row in np.flatnonzero(near):  # bounding boxes apart: no overlap
+            other = self._order[row]
+            if other != moving and shape.intersection(self.standing(other)).area > AREA_TOL:
                 self.errors.append(f"action {k}: {what} overlaps block {other}")
 
     def inside(self, k: int, shape: Polygon, region: Polygon, what: str) -> None:
@@ -145,7 +168,7 @@ class _Replay:
             for pad in pads:
                 self.hits(k, a.block, pad, "a pushing fingertip's sweep")
                 self.inside(k, pad, self.table, "a pushing fingertip's sweep")
-        self.poses[a.block] = a.to
+        self.moved(a.block, a.to)
 
     def check_goal(self, tol_xy: float, tol_yaw: float) -> None:
         goal = self.scene.goal
