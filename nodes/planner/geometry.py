@@ -2,9 +2,10 @@
 
 Footprints (blocks, grasping fingers, pushes) come from ``msgs_py.footprint``: rectangles,
 vectorised over K poses. ``Obstacles`` answers bulk collision queries in numpy: bounding
-boxes first, then the separating-axis test on the pairs left (two rectangles overlap when
-they interpenetrate along each of their four edge normals by more than ``PENETRATION_TOL``,
-so footprints that only touch, a zero gap in a dense grid, do not collide). A query separates
+boxes first, then the separating-axis test on the pairs left (how deep two rectangles
+interpenetrate along their four edge normals), and for the few that barely do, the area they
+share (more than ``OVERLAP_AREA_TOL``, as ``msgs_py.footprint.overlapping_pairs`` decides:
+footprints that only touch, a zero gap in a dense grid, do not collide). A query separates
 *fixed* blocks (placed, not in O_R: any overlap forbids the action) from *movable* ones (in
 O_R: overlaps are allowed and counted, Nc), the latter as a bit mask over the scene's block
 ids so that the union of the blocks hit along a path is a bitwise OR and Nc a popcount. A mask
@@ -18,14 +19,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 
-from msgs_py.cell import INSIDE_TOL
+from msgs_py.cell import INSIDE_TOL, OVERLAP_AREA_TOL
+from msgs_py.footprint import to_polygons
 
 WORD = 64
-#: Depth (m) by which two rectangles must interpenetrate along every axis to collide. Far
-#: below any physical meaning, and small enough that what it lets pass (depth x at most a
-#: 0.3 m contact) stays under the replay validator's overlap-area tolerance.
-PENETRATION_TOL = 1e-8
+#: Rectangles that interpenetrate by more than this (m) along all their axes overlap...
+DEEP = 1e-3
+#: ... those that do not by this much are apart or touch; in between (a corner poking in),
+#: they overlap when the area they share exceeds OVERLAP_AREA_TOL, as for ``msgs_py``.
+SHALLOW = 1e-9
 #: Shape-obstacle pairs tested per numpy batch (memory).
 BATCH_PAIRS = 2_000_000
 
@@ -105,9 +109,15 @@ class Obstacles:
                     & (b[:, None, 3] > self.box[None, :, 1]))
             left, right = np.nonzero(near)
             left = left + start
-            deep = penetration(flat[left], self.corners[right]) > PENETRATION_TOL
-            lefts.append(left[deep])
-            rights.append(right[deep])
+            depth = penetration(flat[left], self.corners[right])
+            hit = depth > DEEP
+            maybe = np.flatnonzero((depth > SHALLOW) & ~hit)
+            if len(maybe):
+                shared = shapely.area(shapely.intersection(
+                    to_polygons(flat[left[maybe]]), to_polygons(self.corners[right[maybe]])))
+                hit[maybe] = shared > OVERLAP_AREA_TOL
+            lefts.append(left[hit])
+            rights.append(right[hit])
         return np.concatenate(lefts), np.concatenate(rights), len(flat)
 
     def query(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
