@@ -16,7 +16,7 @@ from msgs_py.cell import GripperGeometry
 from msgs_py.footprint import block_corners
 from nodes.planner.config import PlannerConfig
 from nodes.planner.geometry import Bounds, Obstacles, words
-from nodes.planner.reach import Reach, ur10e_reach
+from nodes.planner.reach import Reach, check_scene_reach, ur10e_reach
 from nodes.planner.transfer import CostModel
 
 State = Mapping[int, Pose2D]
@@ -36,13 +36,16 @@ class PlanContext:
 
     @classmethod
     def for_scene(cls, scene: Scene, config: PlannerConfig) -> PlanContext:
-        """Raises ValueError when the gripper does not fit the scene's blocks."""
+        """Raises ValueError when the gripper does not fit the scene's blocks, MessageError
+        when a block or a goal slot is out of the arm's reach (naming it)."""
         config.check_block(scene.block_size)
+        reach = ur10e_reach()
+        check_scene_reach(scene, reach)
         w = scene.workspace
         workspace = Bounds(w.x_min, w.x_max, w.y_min, w.y_max)
         return cls(config, config.gripper(scene.block_size), workspace,
                    workspace.grown(config.table_margin), tuple(sorted(scene.block_ids)),
-                   ur10e_reach(), CostModel.of(config))
+                   reach, CostModel.of(config))
 
     @cached_property
     def bit_of(self) -> dict[int, int]:

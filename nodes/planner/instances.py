@@ -5,6 +5,9 @@ centre of a square workspace sized for the density (block area / workspace area)
 
 * ``random``: n blocks scattered uniformly (position and yaw), as
   ``nodes.common.scenes.random_scene`` draws them; at density 0.3 the workspace is cramped.
+  Blocks stand where the arm reaches them (up to 49 blocks every workspace lies in reach; a
+  100-block workspace at density 0.2, 1.14 m square at (0.70, 0), reaches past 1.28 m in
+  its far corners, which then stay empty).
 * ``enclosed``: the grid is built except for its interior slots on a checkerboard (the
   centre of a 3x3; two of the four inner slots of a 4x4; five of the nine of a 5x5), each
   walled in by four neighbours on their goals; those slots' blocks stand scattered outside
@@ -27,7 +30,8 @@ import numpy as np
 from msgs_py import BlockPose, Goal, GridSpec, Pose2D, Scene, Workspace
 from msgs_py.cell import BLOCK_SIZE
 from msgs_py.footprint import block_polygon
-from nodes.common.scenes import scatter_blocks, workspace_for
+from nodes.common.scenes import workspace_for
+from nodes.planner.reach import ur10e_reach
 
 SETS = ("random", "enclosed", "rotated", "permuted")
 GAP = 0.003
@@ -52,15 +56,17 @@ def enclosed_slots(rows: int, cols: int) -> list[int]:
             if (r + c) % 2 == 0]
 
 
-def _scatter_outside(count: int, workspace: Workspace, taken: list[Pose2D],
-                     rng: np.random.Generator, first_ids: list[int]) -> list[BlockPose]:
-    """``count`` blocks uniformly in the workspace, MIN_GAP clear of ``taken`` and of each
-    other.
+def scatter(count: int, workspace: Workspace, taken: list[Pose2D], rng: np.random.Generator,
+            ids: list[int]) -> list[BlockPose]:
+    """``count`` blocks uniformly in the workspace (position and yaw, drawn as
+    ``nodes.common.scenes.scatter_blocks`` draws them, so with nothing ``taken`` and every
+    draw in reach the scenes are the same), MIN_GAP clear of ``taken`` and of each other,
+    centres in the UR10e's reach (a 100-block workspace reaches beyond it).
 
     Raises:
         RuntimeError: no room for them.
     """
-    s = BLOCK_SIZE
+    s, reach = BLOCK_SIZE, ur10e_reach()
     walls = [block_polygon(p.x, p.y, p.theta, s + 2 * MIN_GAP) for p in taken]
     placed: list[BlockPose] = []
     grown = []
@@ -69,8 +75,8 @@ def _scatter_outside(count: int, workspace: Workspace, taken: list[Pose2D],
             theta = float(rng.uniform(-math.pi, math.pi))
             x = float(rng.uniform(workspace.x_min, workspace.x_max))
             y = float(rng.uniform(workspace.y_min, workspace.y_max))
-            cand = BlockPose(first_ids[k], x, y, theta)
-            if not workspace.contains_square(cand, s):
+            cand = BlockPose(ids[k], x, y, theta)
+            if not workspace.contains_square(cand, s) or not reach.contains((x, y)):
                 continue
             mine = block_polygon(x, y, theta, s + 2 * MIN_GAP)
             if any(mine.intersects(w) for w in walls) or any(mine.intersects(g) for g in grown):
@@ -79,8 +85,7 @@ def _scatter_outside(count: int, workspace: Workspace, taken: list[Pose2D],
             grown.append(mine)
             break
         else:
-            raise RuntimeError(f"no room for block {first_ids[k]} outside the grid in "
-                               f"{workspace}")
+            raise RuntimeError(f"no room for block {ids[k]} in {workspace}")
     return placed
 
 
@@ -98,7 +103,7 @@ def _from_grid(n: int, density: float, seed: int, labeled: bool, empty: list[int
             owner = [int(b) for b in rng.permutation(n)]
     on_grid = [BlockPose(owner[k], slots[k].x, slots[k].y, slots[k].theta)
                for k in range(n) if k not in empty]
-    outside = _scatter_outside(len(empty), workspace, slots, rng, [owner[k] for k in empty])
+    outside = scatter(len(empty), workspace, slots, rng, [owner[k] for k in empty])
     blocks = tuple(sorted(on_grid + outside, key=lambda b: b.id))
     return Scene(workspace, BLOCK_SIZE, blocks, goal)
 
@@ -112,7 +117,7 @@ def instance(kind: str, n: int, density: float, seed: int, labeled: bool = True)
     """
     if kind in ("random", "rotated"):
         workspace = workspace_for(n, density)
-        blocks = scatter_blocks(n, workspace, np.random.default_rng(seed), BLOCK_SIZE, MIN_GAP)
+        blocks = tuple(scatter(n, workspace, [], np.random.default_rng(seed), list(range(n))))
         theta = 0.25 * math.pi if kind == "rotated" else 0.0
         return Scene(workspace, BLOCK_SIZE, blocks, grid_goal(n, workspace, theta, labeled))
     if kind == "enclosed":

@@ -233,6 +233,8 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
         ids = obstacles.fixed_ids_hit(fingers.reshape(1, -1, 4, 2))
         return NoRoute(f"no grasp or push reaches its target: fingers hit placed block(s) {ids} "
                        "or leave the table, and no push lane into it is free", tuple(ids))
+    if not ctx.reach.contains(nodes[0, :2]):
+        return NoRoute(f"it stands out of the arm's reach ({ctx.reach.describe()})")
     if not np.isfinite(graph.weight[0]).any():
         sx, sy, st = nodes[0]
         fingers = grasp_finger_corners(geom, sx, sy, st, np.arange(2))
