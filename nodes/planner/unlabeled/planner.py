@@ -16,7 +16,6 @@ import numpy as np
 import shapely
 
 from msgs_py import MessageError, Pose2D, Scene
-from msgs_py.actions import Action
 from nodes.planner.assembly import Assembly
 from nodes.planner.bound import unlabeled_bound
 from nodes.planner.budget import Budget
@@ -24,6 +23,7 @@ from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
 from nodes.planner.outcome import PlanOutcome, failed, finish_plan
 from nodes.planner.unlabeled.cell_geometry import CellSpace
+from nodes.planner.unlabeled.cell_transfers import realize_all
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.goal_check import on_slot, unfilled_slots
 from nodes.planner.unlabeled.hypergraph import (
@@ -32,7 +32,7 @@ from nodes.planner.unlabeled.hypergraph import (
     SearchConfig,
     SearchFailure,
 )
-from nodes.planner.unlabeled.rpg import Site, Transfer
+from nodes.planner.unlabeled.rpg import Site
 from nodes.planner.unlabeled.smoothing import n_actions, smooth
 
 PLANNER_NAME = "pebble_graphs"
@@ -77,19 +77,6 @@ def goal_zone(space: CellSpace, poses: Iterable[Pose2D]
     parked in the zone are in the way."""
     core = shapely.union_all(space.footprints_of(list(poses)))
     return shapely.buffer(core, space.buffer_clearance, join_style="mitre"), core
-
-
-def realize(space: CellSpace, block_at: Mapping[Site, int], poses: Mapping[int, Pose2D],
-            transfers: Iterable[Transfer]) -> list[Action]:
-    """The actions of ``transfers``: each moves the block standing on its source site."""
-    at, pose = dict(block_at), dict(poses)
-    actions: list[Action] = []
-    for t in transfers:
-        block = at.pop(t.source)
-        acts, pose[block] = space.realize(t, block, pose[block])
-        at[t.target] = block
-        actions += acts
-    return actions
 
 
 def slot_sites(space: CellSpace, scene: Scene, block_sites: Mapping[int, Site],
@@ -145,7 +132,7 @@ def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
         transfers, _ = smooth(space, block_sites.values(), transfers)
     block_at = {site: block for block, site in block_sites.items()}
     poses = {b.id: b.pose for b in scene.blocks}
-    actions = realize(space, block_at, poses, transfers)
+    actions = realize_all(block_at, poses, transfers)
     return finish_plan(scene, config, actions, PLANNER_NAME, budget, bound, metrics, plan_id,
                        ucfg.to_params())
 

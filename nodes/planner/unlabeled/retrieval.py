@@ -22,6 +22,7 @@ from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import at_pose, nearest_goal_yaw
 from nodes.planner.outcome import PlanOutcome, failed, finish_plan
+from nodes.planner.unlabeled.cell_transfers import realize, realize_all
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.hypergraph import (
     ArrangementGoal,
@@ -29,7 +30,7 @@ from nodes.planner.unlabeled.hypergraph import (
     SearchConfig,
     SearchFailure,
 )
-from nodes.planner.unlabeled.planner import make_space, realize
+from nodes.planner.unlabeled.planner import make_space
 from nodes.planner.unlabeled.rpg import Site
 from nodes.planner.unlabeled.smoothing import n_actions, smooth
 
@@ -94,7 +95,7 @@ class _Retrieval:
                 last = f"could not clear its way: {failure.reason}"
                 continue
             space.set_fixed(named)
-            acts, self.pose[block] = space.realize(transfer, block, self.pose[block])
+            acts, self.pose[block] = realize(transfer, block, self.pose[block])
             self.actions += acts
             self.raw += transfer.n_actions
             self.site[block] = target
@@ -124,7 +125,7 @@ class _Retrieval:
         self.raw += n_actions(transfers)
         if self.ucfg.smoothing:
             transfers, _ = smooth(space, start, transfers)
-        acts = realize(space, start, self.pose, transfers)
+        acts = realize_all(start, self.pose, transfers)
         self.actions += acts
         for a in acts:
             self.pose[a.block] = a.to

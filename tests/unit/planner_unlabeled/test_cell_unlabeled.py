@@ -15,6 +15,7 @@ from nodes.planner.dispatch import goal_kind, plan_goal
 from nodes.planner.planner import plan_scene
 from nodes.planner.unlabeled.baseline import assign_slots, plan_assignment
 from nodes.planner.unlabeled.cell_geometry import CellSpace
+from nodes.planner.unlabeled.cell_transfers import realize
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.goal_check import unfilled_slots
 from nodes.planner.unlabeled.planner import plan_unlabeled
@@ -62,7 +63,7 @@ def test_realised_pick_place_keeps_the_grasp_axis_the_transfer_chose():
     b = sp.add_site(Pose2D(0.8, 0.1, 0.0))
     t = sp.transfer(a, b, frozenset())
     # The block actually stands turned by 90 degrees from the site's yaw: same footprint.
-    actions, end = sp.realize(t, 7, Pose2D(0.6, 0.0, 0.2 + math.pi / 2))
+    actions, end = realize(t, 7, Pose2D(0.6, 0.0, 0.2 + math.pi / 2))
     [act] = actions
     step = t.recipe[0]
     pick_axis = act.from_.theta + act.grasp * math.pi / 2
