@@ -21,66 +21,23 @@ from __future__ import annotations
 
 import heapq
 import itertools
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 
 from nodes.planner.budget import Budget
+from nodes.planner.unlabeled.arrangements import ArrangementGoal, SearchSpace, SiteClasses
 from nodes.planner.unlabeled.rpg import (
     RearrangementPebbleGraph,
     Site,
     Transfer,
-    TransferSpace,
     best_arrangement,
     build_rpg,
 )
 
-
-class SearchSpace(TransferSpace, Protocol):
-    """What the search needs beyond transfers: fresh buffer sites and what is in the way."""
-
-    def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
-                rng: np.random.Generator) -> list[Site]:
-        """Up to ``count`` new sites, compatible with ``nodes`` and with each other, out of
-        the goal's way, preferably close to the sites ``near``."""
-        ...
-
-    def obstructs(self, site: Site) -> bool:
-        """The site is in the goal's way (e.g. in the goal area but not a slot)."""
-        ...
-
-    def transfer(self, u: Site, v: Site, occupied: frozenset[Site]) -> Transfer | None:
-        """The cheapest transfer u -> v while the sites ``occupied`` hold blocks."""
-        ...
-
-
-def _never(site: Site) -> bool:
-    return False
-
-
-def _nothing(arrangement: frozenset[Site]) -> int:
-    return 0
-
-
-@dataclass(frozen=True)
-class ArrangementGoal:
-    """Sites that must hold a block (in the order to fill them), sites that must be empty,
-    and an estimate of the extra actions an arrangement still implies beyond one per
-    unfilled slot (e.g. pushes the geometry will force), added to the search heuristic."""
-
-    required: tuple[Site, ...]
-    forbidden: Callable[[Site], bool] = _never
-    extra: Callable[[frozenset[Site]], int] = _nothing
-    #: The unfilled required sites in the order to fill them from an arrangement (default:
-    #: ``required``'s order); lets the geometry re-plan the order as slots get filled.
-    order: Callable[[frozenset[Site]], Sequence[Site]] | None = None
-
-    def unfilled(self, arrangement: frozenset[Site]) -> list[Site]:
-        if self.order is not None:
-            return [s for s in self.order(arrangement) if s not in arrangement]
-        return [s for s in self.required if s not in arrangement]
+__all__ = ["ArrangementGoal", "HypergraphSearch", "HypergraphStats", "SearchConfig",
+           "SearchFailure", "SearchSpace"]
 
 
 @dataclass(frozen=True)
@@ -140,56 +97,9 @@ class HypergraphSearch:
         self.stats = HypergraphStats()
         self._rpgs: dict[frozenset[Site], RearrangementPebbleGraph] = {}
         self._hyper: dict[tuple[frozenset[Site], tuple[int, ...]], int] = {}
-        self._hard: dict[Site, bool] = {}
-        self._soft: dict[Site, bool] = {}
-        self._blocking: dict[Site, float] = {}
+        self.sites = SiteClasses(space, goal)
         if config.b < 0:
             raise ValueError(f"b must be >= 0, got {config.b}")
-
-    # --- site classes ----------------------------------------------------------------------
-    def hard_bad(self, site: Site) -> bool:
-        """A block on this site must leave: forbidden, or overlapping a goal slot."""
-        if site not in self._hard:
-            self._hard[site] = site not in self.required and (
-                self.goal.forbidden(site)
-                or any(self.space.conflicts(site, g) for g in self.goal.required))
-        return self._hard[site]
-
-    def soft_bad(self, site: Site) -> bool:
-        if site not in self._soft:
-            self._soft[site] = site not in self.required and self.space.obstructs(site)
-        return self._soft[site]
-
-    def blocking(self, site: Site) -> float:
-        """How much a block on ``site`` is in the way: the goal slots it overlaps, early
-        ones (in fill order) weighing more; a forbidden site weighs like a whole goal."""
-        if site not in self._blocking:
-            n = len(self.goal.required)
-            weight = sum(1.0 + (n - k) / n for k, g in enumerate(self.goal.required)
-                         if self.space.conflicts(site, g))
-            if self.goal.forbidden(site):
-                weight += 2.0 * max(n, 1)
-            self._blocking[site] = weight
-        return self._blocking[site]
-
-    def rank(self, site: Site) -> float:
-        """Which sites an arrangement should occupy first (low) and leave first (high)."""
-        if site in self.required:
-            return 0.0
-        if self.hard_bad(site):
-            return 3.0 + 1e-3 * self.blocking(site)
-        return 2.0 if self.soft_bad(site) else 1.0
-
-    def progress(self, arrangement: frozenset[Site]) -> int:
-        """Tie-break between equally good hypernodes: slots early in the fill order count
-        more (filling a slot before the ones behind it can wall them in)."""
-        n = len(self.goal.required)
-        return sum(n - i for i, s in enumerate(self.goal.required) if s in arrangement)
-
-    def heuristic(self, arrangement: frozenset[Site]) -> int:
-        unfilled = len(self.required - arrangement)
-        leaving = sum(1 for s in arrangement if self.hard_bad(s))
-        return max(unfilled, leaving) + self.goal.extra(arrangement)
 
     # --- graphs ----------------------------------------------------------------------------
     def rpg(self, nodes: frozenset[Site]) -> RearrangementPebbleGraph:
@@ -228,8 +138,9 @@ class HypergraphSearch:
         unfilled = self.goal.unfilled(arrangement)
         free = [s for s in unfilled
                 if not any(self.space.conflicts(s, a) for a in arrangement)]
-        offenders = sorted((a for a in arrangement if self.hard_bad(a) or self.soft_bad(a)),
-                           key=lambda a: (-self.rank(a), a))
+        sites = self.sites
+        offenders = sorted((a for a in arrangement if sites.hard_bad(a) or sites.soft_bad(a)),
+                           key=lambda a: (-sites.rank(a), a))
         movers = offenders or [a for a in sorted(arrangement) if a not in self.required]
         j_max = min(b, len(free))
         picks: list[tuple[list[Site], int, bool]] = []
@@ -263,11 +174,12 @@ class HypergraphSearch:
             if transfer(u, slot, frozenset()) is None:
                 continue
             away = set(arrangement - {u})
-            for a in sorted(away, key=lambda a: (self.rank(a) != 0.0, -self.rank(a), a)):
+            rank = self.sites.rank
+            for a in sorted(away, key=lambda a: (rank(a) != 0.0, -rank(a), a)):
                 if transfer(u, slot, frozenset(arrangement - {u} - (away - {a}))) is not None:
                     away.discard(a)  # it can stay
-            found.append(sorted(away, key=lambda a: (self.rank(a) == 0.0, a)))
-        return sorted(found, key=lambda g: (len(g), sum(self.rank(a) == 0.0 for a in g)))
+            found.append(sorted(away, key=lambda a: (self.sites.rank(a) == 0.0, a)))
+        return sorted(found, key=lambda g: (len(g), sum(self.sites.rank(a) == 0.0 for a in g)))
 
     def unblock(self, arrangement: frozenset[Site]
                 ) -> tuple[frozenset[Site], frozenset[Site]] | None:
@@ -295,7 +207,7 @@ class HypergraphSearch:
         out = []
         unfilled = self.goal.unfilled(arrangement)
         for a in sorted(arrangement):
-            if not self.hard_bad(a):
+            if not self.sites.hard_bad(a):
                 continue
             for g in unfilled:
                 if not self.space.conflicts(a, g):
@@ -322,7 +234,7 @@ class HypergraphSearch:
                 return 5.0
             if not evict and s not in arrangement and s not in self.required:
                 return 4.0
-            return self.rank(s)
+            return self.sites.rank(s)
         moves: list[Transfer] = []
         current = arrangement
         for _ in range(len(rpg.nodes) + 1):
@@ -346,7 +258,7 @@ class HypergraphSearch:
         need, spare, crowded, room = [], [], [], []
         for k, comp in enumerate(rpg.components):
             req = sum(1 for s in comp if s in self.required)
-            good = sum(1 for s in comp if self.rank(s) <= 1.0)
+            good = sum(1 for s in comp if self.sites.rank(s) <= 1.0)
             need.append(sig[k] < req)
             spare.append(sig[k] > req)
             crowded.append(sig[k] > good)
@@ -359,7 +271,7 @@ class HypergraphSearch:
             if not ((spare[a] and need[b]) or (crowded[a] and room[b] and not need[a])):
                 continue
             # Take a block that must leave its site anyway, not one a slot would then miss.
-            key = (t.n_actions, -self.rank(u), t.cost, u, v)
+            key = (t.n_actions, -self.sites.rank(u), t.cost, u, v)
             if best_key is None or key < best_key:
                 best, best_key = t, key
         return best
@@ -382,14 +294,14 @@ class HypergraphSearch:
         return _Node(arrangement, rpg,
                      parent.actions + sum(t.n_actions for t in moves),
                      parent.cost + sum(t.cost for t in moves), moves, parent,
-                     self.heuristic(arrangement), self.progress(arrangement))
+                     self.sites.heuristic(arrangement), self.sites.progress(arrangement))
 
     def slid(self, parent: _Node, t: Transfer) -> _Node:
         """The hypernode after an overlap move: the new arrangement in its own graph."""
         arrangement = (parent.arrangement - {t.source}) | {t.target}
         return _Node(arrangement, self.rpg(arrangement), parent.actions + t.n_actions,
-                     parent.cost + t.cost, [t], parent, self.heuristic(arrangement),
-                     self.progress(arrangement))
+                     parent.cost + t.cost, [t], parent, self.sites.heuristic(arrangement),
+                     self.sites.progress(arrangement))
 
     def run(self) -> list[Transfer]:
         """Transfers from the start arrangement to a goal arrangement.
@@ -405,7 +317,7 @@ class HypergraphSearch:
         cfg = self.config
         if self.required <= self.start and not any(self.goal.forbidden(s) for s in self.start):
             return []  # already there
-        root = _Node(self.start, None, 0, 0.0, [], None, self.heuristic(self.start))
+        root = _Node(self.start, None, 0, 0.0, [], None, self.sites.heuristic(self.start))
         tie = itertools.count()
         heap = [(0.0, root.h, 0, 0.0, next(tie), root)]
         seen: dict[frozenset[Site], int] = {root.arrangement: 0}
@@ -467,7 +379,7 @@ class HypergraphSearch:
             arrangement = (arrangement - {t.source}) | {t.target}
         return _Node(arrangement, rpg, node.actions + sum(t.n_actions for t in final),
                      node.cost + sum(t.cost for t in final), final, node, 0,
-                     self.progress(arrangement), goal=True)
+                     self.sites.progress(arrangement), goal=True)
 
     def finish(self, node: _Node) -> list[Transfer]:
         chain: list[_Node] = []
