@@ -210,23 +210,7 @@ class CellSpace:
         """
         if count <= 0:
             return []
-        w, half = self.ctx.workspace, 0.5 * self.s
-        k = BUFFER_CANDIDATES
-        # random candidates at any yaw (a turned block may fit a gap) and a fixed lattice
-        # square to the goal, whose zone tests are cached
-        rand_xy = np.column_stack([rng.uniform(w.x_min + half, w.x_max - half, k),
-                                   rng.uniform(w.y_min + half, w.y_max - half, k)])
-        rand_yaw = rng.uniform(-QUARTER / 2, QUARTER / 2, k) + self.buffer_yaw
-        r_corners = block_corners(rand_xy[:, 0], rand_xy[:, 1], rand_yaw, self.s)
-        r_feet = to_polygons(r_corners)
-        r_ok, r_zone, r_core = self._zone_flags(r_corners, r_feet)
-        l_xy, l_yaw, l_feet, l_ok, l_zone, l_core = self._lattice()
-        xy = np.concatenate([rand_xy, l_xy])
-        yaw = np.concatenate([rand_yaw, l_yaw])
-        feet = np.concatenate([r_feet, l_feet])
-        ok = np.concatenate([r_ok, l_ok]) & self.ctx.reach.contains(xy)
-        in_zone = np.concatenate([r_zone, l_zone])
-        in_core = np.concatenate([r_core, l_core])
+        xy, yaw, feet, ok, in_zone, in_core = self._buffer_candidates(rng)
         blocks = [self.footprints[n] for n in nodes] + self.fixed_polys
         room = np.full(len(feet), np.inf)
         if blocks:
@@ -236,8 +220,7 @@ class CellSpace:
         graspable = roomy.copy()
         tight = np.flatnonzero(ok & ~roomy & ~in_core)
         if len(tight) and blocks:
-            standing = [self.poses[n] for n in nodes] + self.fixed
-            arr = poses_to_array(standing)
+            arr = poses_to_array([self.poses[n] for n in nodes] + self.fixed)
             obstacles = Obstacles(list(range(len(arr))), block_corners(
                 arr[:, 0], arr[:, 1], arr[:, 2], self.s), [False] * len(arr), {})
             cand = np.column_stack([xy[tight], yaw[tight]])
@@ -250,7 +233,29 @@ class CellSpace:
             dist = np.min(np.hypot(xy[:, None, 0] - ref[None, :, 0],
                                    xy[:, None, 1] - ref[None, :, 1]), axis=1)
         squeeze = np.where(tier >= 2, -np.minimum(room, self.buffer_clearance), 0.0)
-        order = np.lexsort((dist, squeeze, tier))
+        chosen = self._spread(np.lexsort((dist, squeeze, tier)), ok, feet, count)
+        return [self.add_site(Pose2D(float(xy[c, 0]), float(xy[c, 1]), float(yaw[c])))
+                for c in chosen]
+
+    def _buffer_candidates(self, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+        """Random candidates at any yaw (a turned block may fit a gap) and a fixed lattice
+        square to the goal (zone tests cached): xy, yaw, footprints, inside the workspace
+        and in reach, in the zone, on a slot."""
+        w, half, k = self.ctx.workspace, 0.5 * self.s, BUFFER_CANDIDATES
+        rand_xy = np.column_stack([rng.uniform(w.x_min + half, w.x_max - half, k),
+                                   rng.uniform(w.y_min + half, w.y_max - half, k)])
+        rand_yaw = rng.uniform(-QUARTER / 2, QUARTER / 2, k) + self.buffer_yaw
+        r_corners = block_corners(rand_xy[:, 0], rand_xy[:, 1], rand_yaw, self.s)
+        r_feet = to_polygons(r_corners)
+        random_part = (rand_xy, rand_yaw, r_feet, *self._zone_flags(r_corners, r_feet))
+        xy, yaw, feet, ok, in_zone, in_core = (
+            np.concatenate([a, b]) for a, b in zip(random_part, self._lattice(), strict=True))
+        return xy, yaw, feet, ok & self.ctx.reach.contains(xy), in_zone, in_core
+
+    def _spread(self, order: np.ndarray, ok: np.ndarray, feet: np.ndarray, count: int
+                ) -> list[int]:
+        """The first ``count`` usable candidates in ``order`` that keep half the buffer
+        clearance from each other."""
         chosen: list[int] = []
         grown: list[Polygon] = []
         for c in order:
@@ -262,8 +267,7 @@ class CellSpace:
             if all(not mine.intersects(g) for g in grown):
                 chosen.append(int(c))
                 grown.append(mine)
-        return [self.add_site(Pose2D(float(xy[c, 0]), float(xy[c, 1]), float(yaw[c])))
-                for c in chosen]
+        return chosen
 
     # --- one block's ways from u to v, and the room each needs ----------------------------
     def set_fixed(self, poses: Sequence[Pose2D]) -> None:

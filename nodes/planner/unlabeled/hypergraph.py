@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,6 +81,17 @@ class _Node:
     h: int = 0
     progress: int = 0
     goal: bool = False
+
+
+@dataclass
+class _Frontier:
+    """The open hypernodes of one run, what has been seen, and the best goal so far."""
+
+    heap: list[tuple]
+    seen: dict[frozenset[Site], int]
+    best_h: int
+    best_goal: _Node | None = None
+    tie: Iterator[int] = field(default_factory=itertools.count)
 
 
 class HypergraphSearch:
@@ -314,60 +325,71 @@ class HypergraphSearch:
         Raises:
             SearchFailure: no goal hypernode reached within the deadline / expansions.
         """
-        cfg = self.config
         if self.required <= self.start and not any(self.goal.forbidden(s) for s in self.start):
             return []  # already there
         root = _Node(self.start, None, 0, 0.0, [], None, self.sites.heuristic(self.start))
-        tie = itertools.count()
-        heap = [(0.0, root.h, 0, 0.0, next(tie), root)]
-        seen: dict[frozenset[Site], int] = {root.arrangement: 0}
-        best_h = root.h
-        best_goal: _Node | None = None
-        while heap:
-            if cfg.budget is not None and cfg.budget.stopped():
-                raise SearchFailure("stopped on request", self.stats)
-            out_of_time = cfg.budget is not None and cfg.budget.expired()
-            if out_of_time or self.stats.expansions >= cfg.max_expansions:
-                if best_goal is not None:
-                    return self.finish(best_goal)
-                why = ("time budget exhausted" if out_of_time else
-                       f"{cfg.max_expansions} expansions without reaching the goal")
-                raise SearchFailure(f"{why}; best arrangement still needed {best_h} actions",
-                                    self.stats)
-            *_, node = heapq.heappop(heap)
+        front = _Frontier([(0.0, root.h, 0, 0.0, -1, root)], {root.arrangement: 0}, root.h)
+        while front.heap:
+            why = self._out_of_limits()
+            if why:
+                return self._give_up(front, why)
+            *_, node = heapq.heappop(front.heap)
             if node.goal:
                 return self.finish(node)
-            if seen.get(node.arrangement, -1) < node.actions:
+            if front.seen.get(node.arrangement, -1) < node.actions:
                 continue
             self.stats.expansions += 1
-            kids = [self.child(node, self.rpg(nodes), evict)
-                    for nodes, evict in self.proposals(node.arrangement)]
-            kids += [self.slid(node, t) for t in self.overlap_moves(node.arrangement)]
-            fresh = [kid for kid in kids if kid.arrangement not in seen]
-            if not any(kid.h < node.h for kid in fresh):
-                stuck = self.unblock(node.arrangement)
-                if stuck is not None:
-                    kids.append(self.child(node, self.rpg(stuck[0]), True, stuck[1]))
-            for kid in kids:
-                self.note_hypernode(kid.rpg, kid.arrangement)
-                if self.is_goal(kid.rpg, kid.arrangement):
-                    done = self.goal_entry(kid)
-                    if best_goal is None or (done.actions, done.cost) < (best_goal.actions,
-                                                                         best_goal.cost):
-                        best_goal = done
-                        heapq.heappush(heap, (float(done.actions), 0, -done.progress,
-                                              done.cost, next(tie), done))
-                    continue
-                if kid.arrangement in seen and seen[kid.arrangement] <= kid.actions:
-                    continue
-                seen[kid.arrangement] = kid.actions
-                best_h = min(best_h, kid.h)
-                f = kid.actions + cfg.weight * kid.h
-                heapq.heappush(heap, (f, kid.h, -kid.progress, kid.cost, next(tie), kid))
-        if best_goal is not None:
-            return self.finish(best_goal)
-        raise SearchFailure(f"the hypergraph ran out of hypernodes to expand; best "
-                            f"arrangement still needed {best_h} actions", self.stats)
+            for kid in self.expand(node, front.seen):
+                self._enqueue(kid, front)
+        return self._give_up(front, "the hypergraph ran out of hypernodes to expand")
+
+    def _out_of_limits(self) -> str:
+        """Why the search must stop now ('' if it need not); a stop request raises."""
+        cfg = self.config
+        if cfg.budget is not None and cfg.budget.stopped():
+            raise SearchFailure("stopped on request", self.stats)
+        if cfg.budget is not None and cfg.budget.expired():
+            return "time budget exhausted"
+        if self.stats.expansions >= cfg.max_expansions:
+            return f"{cfg.max_expansions} expansions without reaching the goal"
+        return ""
+
+    def _give_up(self, front: _Frontier, why: str) -> list[Transfer]:
+        if front.best_goal is not None:
+            return self.finish(front.best_goal)
+        raise SearchFailure(f"{why}; best arrangement still needed {front.best_h} actions",
+                            self.stats)
+
+    def expand(self, node: _Node, seen: dict[frozenset[Site], int]) -> list[_Node]:
+        """The hypernodes the proposed graphs and overlap moves lead to from ``node``, and,
+        when none of the new ones gets closer, the graph that unblocks the next slot."""
+        kids = [self.child(node, self.rpg(nodes), evict)
+                for nodes, evict in self.proposals(node.arrangement)]
+        kids += [self.slid(node, t) for t in self.overlap_moves(node.arrangement)]
+        fresh = [kid for kid in kids if kid.arrangement not in seen]
+        if not any(kid.h < node.h for kid in fresh):
+            stuck = self.unblock(node.arrangement)
+            if stuck is not None:
+                kids.append(self.child(node, self.rpg(stuck[0]), True, stuck[1]))
+        return kids
+
+    def _enqueue(self, kid: _Node, front: _Frontier) -> None:
+        """Queue ``kid``, or its goal entry when its class holds a goal arrangement."""
+        self.note_hypernode(kid.rpg, kid.arrangement)
+        if self.is_goal(kid.rpg, kid.arrangement):
+            done = self.goal_entry(kid)
+            best = front.best_goal
+            if best is None or (done.actions, done.cost) < (best.actions, best.cost):
+                front.best_goal = done
+                heapq.heappush(front.heap, (float(done.actions), 0, -done.progress, done.cost,
+                                            next(front.tie), done))
+            return
+        if kid.arrangement in front.seen and front.seen[kid.arrangement] <= kid.actions:
+            return
+        front.seen[kid.arrangement] = kid.actions
+        front.best_h = min(front.best_h, kid.h)
+        f = kid.actions + self.config.weight * kid.h
+        heapq.heappush(front.heap, (f, kid.h, -kid.progress, kid.cost, next(front.tie), kid))
 
     def goal_entry(self, node: _Node) -> _Node:
         """The goal reached from ``node``'s class: the final moves inside its graph."""
