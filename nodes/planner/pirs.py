@@ -175,6 +175,15 @@ class Pirs:
         if len(placed) > self.stats.failure[0]:
             self.stats.failure = (len(placed), block, reason)
 
+    def _too_deep(self, block: int, placed: frozenset[int], depth: int, what: str) -> bool:
+        """Out of time (raises OutOfTime), or ``what`` nests deeper than ``max_depth``."""
+        self.budget.check()
+        if depth <= self.options.max_depth:
+            return False
+        self.fail(block, placed, f"{what} needed more than max_depth="
+                  f"{self.options.max_depth} nested clears")
+        return True
+
     def route(self, block: int, state: State, target: Any, movable: frozenset[int]
               ) -> Route | NoRoute:
         self.budget.check()
@@ -207,10 +216,7 @@ class Pirs:
              placed: frozenset[int], depth: int, known: Route | NoRoute | None = None
              ) -> _Result | None:
         """Place ``o`` on its goal, then the ``remaining`` goal blocks; None on failure."""
-        self.budget.check()
-        if depth > self.options.max_depth:
-            self.fail(o, placed, f"clearing its way needed more than max_depth="
-                      f"{self.options.max_depth} nested clears")
+        if self._too_deep(o, placed, depth, "clearing its way"):
             return None
         movable = remaining | self.free
         route = self._goal_route(o, state, movable, known)
@@ -260,10 +266,7 @@ class Pirs:
               placed: frozenset[int], region: Any, depth: int, target: Any = None
               ) -> _Result | None:
         """Move ``o`` out of the way (of ``region``), clearing its own way recursively."""
-        self.budget.check()
-        if depth > self.options.max_depth:
-            self.fail(o, placed, f"clearing it needed more than max_depth="
-                      f"{self.options.max_depth} nested clears")
+        if self._too_deep(o, placed, depth, "clearing it"):
             return None
         self.stats.clears += 1
         tries: Sequence[tuple[Any, bool]] = (
