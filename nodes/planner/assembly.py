@@ -133,6 +133,24 @@ class Assembly:
                 occupied &= ~(1 << c)
         return [self.ids[c] for c in range(len(self.ids)) if empty >> c & 1]
 
+    def keepable(self, kept: int) -> int:
+        """The slots of ``kept`` (filled at the start) that can stay filled while every
+        other slot is filled around them: while some slot is walled in, one of its kept
+        neighbours whose leaving opens it goes (preferring one that can come back once it is
+        filled, then the lowest slot)."""
+        kept &= self.all
+        while True:
+            stuck = [self.index[b] for b in self.stuck(kept)]
+            if not stuck:
+                return kept
+            c = stuck[0]
+            openers = [k for k in range(len(self.ids))
+                       if kept >> k & 1 and self.enterable(c, kept & ~(1 << k))]
+            if not openers:
+                return 0
+            back = [k for k in openers if self.enterable(k, self.all & ~(1 << k))]
+            kept &= ~(1 << (back or openers)[0])
+
     def order(self, filled: int = 0) -> list[int]:
         """A greedy assembly order (block ids) of the slots not in ``filled``: a
         pick-and-place-able slot that keeps the rest feasible first, else a push-only one."""

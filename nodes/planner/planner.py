@@ -14,7 +14,7 @@ import numpy as np
 
 from msgs_py import MessageError, Scene
 from nodes.planner.assembly import Assembly
-from nodes.planner.bound import labeled_bound
+from nodes.planner.bound import LowerBound, labeled_bound
 from nodes.planner.budget import Budget
 from nodes.planner.cell_pirs import CellPirs
 from nodes.planner.config import PlannerConfig
@@ -71,8 +71,7 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
                      bound.relaxation)
     search = Pirs(space, frozenset(goals), frozenset(start) - frozenset(goals), budget,
                   PirsOptions(config.probe, config.max_depth))
-    done = frozenset(b for b in goals if space.at_goal(b, start))
-    keep = done if assembly.feasible(assembly.mask(done)) else frozenset()
+    keep = _kept(space, assembly, bound, start)
     try:
         actions, _ = search.run(start, keep)
     except PlanningFailure as failure:
@@ -85,3 +84,13 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
         metrics["shortcut_saved"] = float(before - len(actions))
     return finish_plan(scene, config, actions, PLANNER_NAME, budget, bound.value, metrics,
                        plan_id)
+
+
+def _kept(space: CellPirs, assembly: Assembly, bound: LowerBound, start) -> frozenset[int]:
+    """Blocks on their goal that the search first tries to leave there: those the bound's
+    best relaxed plan keeps, else as many as leave every other slot enterable."""
+    done = frozenset(b for b in space.goals if space.at_goal(b, start))
+    if bound.exact:
+        return done & bound.keep
+    kept = assembly.keepable(assembly.mask(done))
+    return frozenset(b for b in done if kept & assembly.bit[b])
