@@ -5,9 +5,9 @@ centre of a square workspace sized for the density (block area / workspace area)
 
 * ``random``: n blocks scattered uniformly (position and yaw), as
   ``nodes.common.scenes.random_scene`` draws them; at density 0.3 the workspace is cramped.
-  Blocks stand where the arm reaches them (up to 49 blocks every workspace lies in reach; a
-  100-block workspace at density 0.2, 1.14 m square at (0.70, 0), reaches past 1.28 m in
-  its far corners, which then stay empty).
+  Blocks stand where the arm reaches them: a workspace of 1.29 m^2 (25 blocks at density
+  0.05, 100 at 0.2: 1.14 m square at (0.70, 0)) reaches past the arm's 1.28 m in its far
+  corners, where random_scene may put a block; those seeds then differ from its scenes.
 * ``enclosed``: the grid is built except for its interior slots on a checkerboard (the
   centre of a 3x3; two of the four inner slots of a 4x4; five of the nine of a 5x5), each
   walled in by four neighbours on their goals; those slots' blocks stand scattered outside
