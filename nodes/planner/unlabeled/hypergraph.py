@@ -231,6 +231,24 @@ class HypergraphSearch:
                     out.append(t)
         return out
 
+    def slide_moves(self, arrangement: frozenset[Site]) -> list[Transfer]:
+        """Blocks on filled slots moved into a free slot that no other block can reach as
+        things stand (walled in by filled slots, the centre of a grid): the slot left behind
+        is on the outside, where a block can get in. A transition like ``overlap_moves``."""
+        out = []
+        transfer = self.space.transfer
+        outside = [u for u in sorted(arrangement) if u not in self.required]
+        for g in self.goal.unfilled(arrangement):
+            if any(self.space.conflicts(g, o) for o in arrangement):
+                continue
+            if any(transfer(u, g, arrangement - {u}) is not None for u in outside):
+                continue
+            for a in sorted(arrangement & self.required):
+                t = transfer(a, g, arrangement - {a})
+                if t is not None:
+                    out.append(t)
+        return out
+
     # --- settling inside one graph ---------------------------------------------------------
     def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
                evict: bool = True, vacate: frozenset[Site] = frozenset()
@@ -361,11 +379,12 @@ class HypergraphSearch:
                             self.stats)
 
     def expand(self, node: _Node, seen: dict[frozenset[Site], int]) -> list[_Node]:
-        """The hypernodes the proposed graphs and overlap moves lead to from ``node``, and,
+        """The hypernodes the proposed graphs, overlap and slide moves lead to from ``node``, and,
         when none of the new ones gets closer, the graph that unblocks the next slot."""
         kids = [self.child(node, self.rpg(nodes), evict)
                 for nodes, evict in self.proposals(node.arrangement)]
-        kids += [self.slid(node, t) for t in self.overlap_moves(node.arrangement)]
+        kids += [self.slid(node, t) for t in (*self.overlap_moves(node.arrangement),
+                                              *self.slide_moves(node.arrangement))]
         fresh = [kid for kid in kids if kid.arrangement not in seen]
         if not any(kid.h < node.h for kid in fresh):
             stuck = self.unblock(node.arrangement)
