@@ -5,15 +5,17 @@
 * ``route``: the single-block PRM (``roadmap.plan_route``); regions are footprint corners.
 * ``order``: blocks by estimated actions: now (0 on its goal already, 1 for a pick-and-place,
   2 for pick-and-place + push) minus one for a block standing on another pending slot
-  (placing it now saves clearing it), plus the pushes the rest of the layout then needs
-  (``Assembly.future_pushes``); ties in assembly order. A block whose placing would wall in
-  another goal slot (``Assembly.feasible``) is left out. With ``assembly_order`` off: by id,
-  every block (the paper).
+  (placing it now saves clearing it), plus what the rest of the layout then costs: the
+  certified bound's least relaxed completion where it was solved (up to 12 slots), else the
+  pushes the greedy assembly order still needs (up to 30 slots); ties in that order. A block
+  whose placing would wall in another goal slot (``Assembly.feasible``) is left out. With
+  ``assembly_order`` off: by id, every block (the paper). Candidates are yielded lazily.
 * ``clearing_poses``: the block's own goal when it is out of the way and filling it next
-  costs no extra push; a pose on a push line into its own goal, out of the way, when its
-  slot will need a push anyway (the clear is then the push's first half); then sampled poses
-  clear of every block where some grasp can set it down, outside the blocked path and off
-  pending goals when those options are on (each dropped in turn if nothing fits).
+  costs nothing extra; a pose on a push line into its own goal, out of the way, from which
+  the push in is free of placed blocks (the clear is then the first half of its arrival);
+  then sampled poses clear of every block where some grasp can set it down, outside the
+  blocked path and off pending goals when those options are on (each dropped in turn if
+  nothing fits).
 * ``wedged``: movable blocks whose last free grasp a placement would take away.
 """
 

@@ -3,9 +3,10 @@
 First every action that leaves its block where it was (the cube's 90-degree symmetry unless
 ``yaw_exact``) goes. Then, from the last action to the first, the plan is tried without each
 action: the block's later actions start from where it stood before (a pick-and-place keeps its
-finger axes in the world, so it is set down on the same footprint; a push must still start on
-its line), and the shortened plan is replayed through the independent validator from the
-state before the dropped action; it is kept when valid. Candidates that cannot be valid (the
+finger axis at its end in the world, so it is set down on the same footprint, and may grasp
+along either axis at its start; a push must still start on its line; a move that now goes
+nowhere, the back of an away-and-back, goes too), and the shortened plan is replayed through
+the independent validator from the state before the dropped action; it is kept when valid. Candidates that cannot be valid (the
 block's next action is a push off that line; a goal block that would end off its goal) are
 not replayed.
 """
