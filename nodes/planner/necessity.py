@@ -6,9 +6,9 @@ action: the block's later actions start from where it stood before (a pick-and-p
 finger axis at its end in the world, so it is set down on the same footprint, and may grasp
 along either axis at its start; a push must still start on its line; a move that now goes
 nowhere, the back of an away-and-back, goes too), and the shortened plan is replayed through
-the independent validator from the state before the dropped action; it is kept when valid. Candidates that cannot be valid (the
-block's next action is a push off that line; a goal block that would end off its goal) are
-not replayed.
+the independent validator from the state before the dropped action; it is kept when valid.
+Candidates that cannot be valid (the block's next action is a push off that line; a goal
+block that would end off its goal) are not replayed.
 """
 
 from __future__ import annotations

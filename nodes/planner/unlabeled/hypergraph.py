@@ -12,7 +12,10 @@ exist as nodes), so graphs are *proposed* from the arrangement at hand instead: 
 plus ``b`` new sites, which are the next goal slots in assembly order and/or buffer sites out
 of the way. Inside the new graph the unlabeled solver moves the blocks to the best arrangement
 of their class (goal slots first, nothing left on a site that blocks a goal slot), and useful
-arcs are taken (a spare block pushed into a slot only reachable one way). The search over
+arcs are taken (a spare block pushed into a slot only reachable one way). Two single moves
+join graphs that cannot share an arrangement: a block overlapping a slot moved straight onto
+it, and a block on a filled slot slid into a free slot no other block can reach (walled in),
+leaving its own slot on the outside. The search over
 these hypernodes is weighted A*: g = actions so far, h = a lower bound on the actions left
 (unfilled slots, blocks that must still leave their site).
 """
