@@ -39,14 +39,6 @@ def words(n_bits: int) -> int:
     return max(1, -(-n_bits // WORD))
 
 
-def bit_mask(bits, n_words: int) -> np.ndarray:
-    """The mask (n_words,) with the given bit indices set."""
-    out = np.zeros(n_words, dtype=np.uint64)
-    for b in bits:
-        out[b // WORD] |= np.uint64(1) << np.uint64(b % WORD)
-    return out
-
-
 @dataclass(frozen=True, slots=True)
 class Bounds:
     """Axis-aligned region (m): the workspace for blocks, the table for fingers."""
