@@ -84,3 +84,12 @@ def test_a_workspace_partly_out_of_reach_is_planned_within_reach():
             points = [tuple(land[0]), tuple(end[0])]
         for x, y in points:
             assert all(ik_reaches(x, y, z, 0.3) for z in ACTION_HEIGHTS), (a, x, y)
+
+
+def test_the_heights_reach_is_checked_at_are_the_executors():
+    from nodes.executor.config import ExecutorConfig
+
+    cfg = ExecutorConfig()
+    executor = (cfg.push_height, cfg.grasp_height, cfg.grasp_height + cfg.place_drop,
+                cfg.travel_height)
+    assert executor == ACTION_HEIGHTS
