@@ -44,6 +44,18 @@ PUSH_CONTACT_DEPTH = 0.010
 #: How far the table extends past the block workspace: fingers may stand there (m).
 TABLE_MARGIN = 0.05
 
+# --- heights of the tool centre point (TCP) over the table top (the executor's defaults) -----
+#: Travel above the blocks (a carried 2-inch block clears standing ones) (m).
+TRAVEL_HEIGHT = 0.15
+#: Fingertips when closing on a block, and when releasing one (grasp + drop) (m).
+GRASP_HEIGHT = 0.012
+PLACE_DROP = 0.002
+#: Fingertips while pushing: low on the face so the block does not tip (m).
+PUSH_HEIGHT = 0.010
+#: Every TCP height a plan's actions use: the arm must reach each action's points at all of
+#: them with the tool pointing down (the planner's reach check).
+ACTION_HEIGHTS = (PUSH_HEIGHT, GRASP_HEIGHT, GRASP_HEIGHT + PLACE_DROP, TRAVEL_HEIGHT)
+
 # --- tolerances --------------------------------------------------------------------------------
 #: A block this close to where it should be counts as there: the planner's "placed" and
 #: the executor's "no correction needed" (m, and degrees modulo the cube's symmetry).
@@ -86,6 +98,12 @@ class GripperGeometry:
     def finger_offset(self) -> float:
         """Grasp: distance from the block centre to each finger's centre, along the axis."""
         return 0.5 * self.block_size + self.approach_clearance + 0.5 * self.finger_thickness
+
+    @property
+    def push_tcp_offset(self) -> float:
+        """Push: distance from the block centre back to the TCP as the fingertips land behind
+        the block (the TCP then travels the push distance + ``push_contact_depth``)."""
+        return 0.5 * self.block_size + self.push_contact_depth + 0.5 * self.finger_width
 
 
 def table_margin_of(params: Mapping[str, Any]) -> float:

@@ -1,10 +1,12 @@
-"""Planner benchmark: random start -> dense grid (gap 3 mm), per block count and density.
+"""Planner benchmark: labeled scenes -> dense grid (gap 3 mm), per set, block count, density.
 
-For each n in --n and density in --density, plans ``--seeds`` random scenes
-(``nodes.common.scenes.random_scene``) and reports success rate, planning time (median,
-p90), actions (median) and actions / lower bound (median; lower bound = blocks not already on
-their goal). Every returned plan has passed the replay validator. ``--variants`` adds rows
-with one improvement switched off (or on) to measure each option.
+For each instance set in --set (``instances``: random, enclosed, rotated, permuted), block
+count and density, plans ``--seeds`` scenes with pIRS and reports success rate, planning time
+(median, p90), actions, the certified lower bound (``bound``) and the gap to it, and, for up to
+``exact.MAX_BLOCKS`` blocks, the exact optimum over a fixed pose set and the gap to that. Every
+plan counted has passed the replay validator; a scene that fails, or cannot be built, is
+listed with its reason in the row's ``failures`` (never a traceback). ``--variants`` adds
+rows with one option switched off (or on) to measure each.
 """
 
 from __future__ import annotations
@@ -12,18 +14,34 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import statistics
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from nodes.common.scenes import random_scene
+from msgs_py import Scene
 from nodes.planner.config import PlannerConfig
+from nodes.planner.context import PlanContext
+from nodes.planner.exact import MAX_BLOCKS, ExactLimit, exact_plan
+from nodes.planner.instances import SETS, instance
+from nodes.planner.outcome import PlanOutcome
 from nodes.planner.planner import plan_scene
 
-COLUMNS = ["n_blocks", "density", "variant", "seeds", "success_rate", "time_median_s",
-           "time_p90_s", "actions_median", "actions_over_lower_bound_median", "clears_median"]
+COLUMNS = ["set", "n_blocks", "density", "variant", "seeds", "success_rate", "time_median_s",
+           "time_p90_s", "actions_median", "lower_bound_median",
+           "actions_minus_lower_bound_median", "actions_over_lower_bound_median",
+           "exact_median", "actions_minus_exact_median"]
 
-DENSITIES = {"low": 0.05, "high": 0.20}
+DENSITIES = {"low": 0.05, "high": 0.20, "cramped": 0.30}
+#: (block counts, densities) per set when --n / --density are not given; --quick: the first.
+DEFAULTS = {
+    "random": [((4, 9, 16, 25), ("low", "high")), ((4, 9, 16), ("cramped",))],
+    "enclosed": [((9, 16, 25), ("high",))],
+    "rotated": [((4, 9, 16), ("high", "cramped"))],
+    "permuted": [((4, 9), ("high",))],
+}
+QUICK = {"random": [((4, 9), ("low", "high"))], "enclosed": [((9,), ("high",))],
+         "rotated": [((4,), ("high",))], "permuted": [((4,), ("high",))]}
 #: Option toggles benchmarked by --variants: name -> config overrides.
 VARIANTS = {
     "default": {},
@@ -39,56 +57,153 @@ VARIANTS = {
 }
 
 
+def density_value(text: str) -> float:
+    """A density by name (low, high, cramped) or as a number."""
+    if text in DENSITIES:
+        return DENSITIES[text]
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"density must be one of {sorted(DENSITIES)} or a number, got {text!r}") from None
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--set", dest="sets", nargs="+", choices=SETS, default=None,
+                        help="instance sets (default: all)")
     parser.add_argument("--n", type=int, nargs="+", default=None,
-                        help="block counts (default 4 9 16 25; --quick: 4 9)")
-    parser.add_argument("--density", choices=sorted(DENSITIES), nargs="+",
-                        default=["low", "high"], help="densities: low ~5%%, high ~20%%")
+                        help="block counts (default per set, e.g. random: 4 9 16 25)")
+    parser.add_argument("--density", type=density_value, nargs="+", default=None,
+                        help="densities: low 0.05, high 0.20, cramped 0.30, or numbers")
     parser.add_argument("--budget", type=float, default=60.0, help="planning budget per scene, s")
     parser.add_argument("--variants", nargs="+", choices=sorted(VARIANTS), default=["default"],
                         help="option sets to run (default: the configured defaults)")
     parser.add_argument("--first-seed", type=int, default=0)
-    parser.add_argument("--gap", type=float, default=0.003,
-                        help="gap between goal grid neighbours, m (3 mm: room for perception "
-                        "error, so a block pushed in between two others does not rub them)")
+    parser.add_argument("--no-exact", action="store_true",
+                        help=f"skip the exact search (done for <= {MAX_BLOCKS} blocks)")
     for f in dataclasses.fields(PlannerConfig):
         if f.type in ("bool", bool):
             parser.add_argument(f"--{f.name.replace('_', '-')}", choices=["on", "off"],
                                 default=None, help=f"override option {f.name}")
 
 
-def _percentile(values: list[float], q: float) -> float:
+def percentile(values: list[float], q: float) -> float:
     return float(np.percentile(values, q)) if values else float("nan")
 
 
-def run_set(n: int, density: float, seeds: range, config: PlannerConfig, gap: float = 0.003
-            ) -> dict[str, Any]:
-    times, actions, ratios, clears, failures = [], [], [], [], []
+def median(values: list[float]) -> float:
+    return float(statistics.median(values)) if values else float("nan")
+
+
+def exact_actions(scene: Scene, config: PlannerConfig) -> int | None:
+    """The exact optimum over the fixed pose set, or None (too big, not proven)."""
+    if len(scene.blocks) > MAX_BLOCKS or scene.goal.yaw_exact:
+        return None
+    ctx = PlanContext.for_scene(scene, config)
+    slots = scene.goal.slot_poses(scene.block_size)
+    assignment = None
+    if scene.goal.labeled:
+        index = {(p.x, p.y): k for k, p in enumerate(slots)}
+        assignment = {b: index[(p.x, p.y)] for b, p in scene.goal_assignment().items()}
+    try:
+        return len(exact_plan(ctx, {b.id: b.pose for b in scene.blocks}, slots,
+                              assignment).actions)
+    except ExactLimit:
+        return None
+
+
+@dataclasses.dataclass
+class Tally:
+    """Per-seed figures of one planner on one instance set."""
+
+    times: list[float] = dataclasses.field(default_factory=list)
+    actions: dict[int, float] = dataclasses.field(default_factory=dict)  # seed -> actions
+    bounds: dict[int, float] = dataclasses.field(default_factory=dict)
+    exact: dict[int, float] = dataclasses.field(default_factory=dict)
+    raw: list[float] = dataclasses.field(default_factory=list)
+    pushes: list[float] = dataclasses.field(default_factory=list)
+    clears: list[float] = dataclasses.field(default_factory=list)
+    failures: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    seeds: int = 0
+
+    def add(self, seed: int, out: PlanOutcome) -> None:
+        self.seeds += 1
+        self.times.append(out.planning_time_s)
+        self.bounds[seed] = float(out.lower_bound)
+        if out.plan is None:
+            self.failures.append({"seed": seed, "error": out.error})
+            return
+        n = float(len(out.plan.actions))
+        self.actions[seed] = n
+        self.raw.append(out.metrics.get("actions_raw", n))
+        self.pushes.append(float(sum(a.type == "push" for a in out.plan.actions)))
+        self.clears.append(out.metrics.get("clears", 0.0))
+
+    def refuse(self, seed: int, error: str) -> None:
+        """A scene that could not be planned at all (bad input, no instance)."""
+        self.seeds += 1
+        self.failures.append({"seed": seed, "error": error})
+
+    def figures(self) -> dict[str, Any]:
+        done = sorted(self.actions)
+        gap = [self.actions[s] - self.bounds[s] for s in done]
+        ratio = [self.actions[s] / max(self.bounds[s], 1.0) for s in done]
+        to_exact = [self.actions[s] - self.exact[s] for s in done if s in self.exact]
+        return {
+            "seeds": self.seeds,
+            "success_rate": len(done) / self.seeds if self.seeds else float("nan"),
+            "time_median_s": median(self.times), "time_p90_s": percentile(self.times, 90),
+            "actions_median": median([self.actions[s] for s in done]),
+            "actions_raw_median": median(self.raw),
+            "pushes_median": median(self.pushes), "clears_median": median(self.clears),
+            "lower_bound_median": median(list(self.bounds.values())),
+            "actions_minus_lower_bound_median": median(gap),
+            "actions_over_lower_bound_median": median(ratio),
+            "exact_median": median(list(self.exact.values())),
+            "exact_solved": len(self.exact),
+            "actions_minus_exact_median": median(to_exact),
+            "failures": self.failures,
+        }
+
+
+def plan_safely(tally: Tally, seed: int, planner: Callable[..., PlanOutcome], *args) -> None:
+    """``planner(*args)`` into ``tally``; input it refuses becomes a failure with the reason."""
+    try:
+        tally.add(seed, planner(*args))
+    except (ValueError, RuntimeError) as err:  # MessageError is a ValueError
+        tally.refuse(seed, f"{type(err).__name__}: {err}")
+
+
+def run_set(kind: str, n: int, density: float, seeds: range, config: PlannerConfig,
+            exact: bool = True) -> dict[str, Any]:
+    tally = Tally()
     for seed in seeds:
-        scene = random_scene(n, density, seed, gap=gap)
-        out = plan_scene(scene, dataclasses.replace(config, seed=seed))
-        times.append(out.planning_time_s)
-        if out.ok:
-            actions.append(len(out.plan.actions))
-            ratios.append(len(out.plan.actions) / max(out.lower_bound, 1))
-            clears.append(out.metrics.get("clears", 0.0))
-        else:
-            failures.append({"seed": seed, "error": out.error})
-    med = statistics.median
-    return {
-        "n_blocks": n, "density": density, "seeds": len(seeds), "budget_s": config.budget_s,
-        "success_rate": len(actions) / len(seeds),
-        "time_median_s": med(times) if times else float("nan"),
-        "time_p90_s": _percentile(times, 90),
-        "actions_median": med(actions) if actions else float("nan"),
-        "actions_over_lower_bound_median": med(ratios) if ratios else float("nan"),
-        "clears_median": med(clears) if clears else float("nan"),
-        "failures": failures,
-    }
+        try:
+            scene = instance(kind, n, density, seed)
+        except (ValueError, RuntimeError) as err:
+            tally.refuse(seed, f"no instance: {err}")
+            continue
+        plan_safely(tally, seed, plan_scene, scene, dataclasses.replace(config, seed=seed))
+        if exact:
+            best = exact_actions(scene, config)
+            if best is not None:
+                tally.exact[seed] = float(best)
+    return {"set": kind, "n_blocks": n, "density": density, "budget_s": config.budget_s,
+            **tally.figures()}
+
+
+def sizes(opts: argparse.Namespace, kind: str) -> list[tuple[int, float]]:
+    """(n, density) pairs of set ``kind`` for these options."""
+    table = QUICK if opts.quick else DEFAULTS
+    pairs = [(n, DENSITIES[d]) for ns, ds in table[kind] for n in ns for d in ds]
+    if opts.n is not None:
+        pairs = [(n, d) for n in opts.n for d in dict.fromkeys(d for _, d in pairs)]
+    if opts.density is not None:
+        pairs = [(n, d) for n in dict.fromkeys(n for n, _ in pairs) for d in opts.density]
+    return pairs
 
 
 def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
-    sizes = opts.n or ([4, 9] if opts.quick else [4, 9, 16, 25])
     n_seeds = opts.seeds or (5 if opts.quick else 20)
     seeds = range(opts.first_seed, opts.first_seed + n_seeds)
     overrides = {f.name: getattr(opts, f.name) == "on" for f in dataclasses.fields(PlannerConfig)
@@ -96,12 +211,13 @@ def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
     rows = []
     for variant in opts.variants:
         config = PlannerConfig(budget_s=opts.budget, **{**VARIANTS[variant], **overrides})
-        for n in sizes:
-            for name in opts.density:
-                row = run_set(n, DENSITIES[name], seeds, config, opts.gap)
+        for kind in opts.sets or SETS:
+            for n, density in sizes(opts, kind):
+                row = run_set(kind, n, density, seeds, config, not opts.no_exact)
                 row["variant"] = variant
                 rows.append(row)
-                print(f"  {variant} n={n} {name}: success {row['success_rate']:.2f}, "
-                      f"median {row['time_median_s']:.2f} s, ratio "
-                      f"{row['actions_over_lower_bound_median']:.2f}", flush=True)
+                print(f"  {variant} {kind} n={n} density={density}: success "
+                      f"{row['success_rate']:.2f}, median {row['time_median_s']:.2f} s, "
+                      f"actions {row['actions_median']} (lower bound "
+                      f"{row['lower_bound_median']})", flush=True)
     return rows

@@ -22,8 +22,8 @@ from msgs_py import MessageError, load_scene, save_plan
 from nodes.common.params import configs_from_parameters, read_params_file
 from nodes.common.paths import config_path
 from nodes.planner.config import PlannerConfig
+from nodes.planner.dispatch import goal_kind, plan_goal
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.dispatch import goal_kind, plan_goal
 
 #: The planner node's parameter groups, as ``--params-file`` names them.
 PLANNER_PARAMETERS = (("", PlannerConfig), ("unlabeled.", UnlabeledConfig))

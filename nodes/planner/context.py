@@ -1,4 +1,4 @@
-"""What every single-block query of one planning run shares: geometry, bounds, id bits.
+"""What every single-block query of one planning run shares: geometry, reach, costs, id bits.
 
 The world state during search is a plain ``dict[int, Pose2D]`` (block id -> pose) treated as
 immutable (copied on write), so a failed branch of the search never leaks into another.
@@ -9,14 +9,19 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 from msgs_py import Pose2D, Scene
 from msgs_py.cell import GripperGeometry
 from msgs_py.footprint import block_corners
 from nodes.planner.config import PlannerConfig
-from nodes.planner.geometry import MAX_BLOCKS, Bounds, Obstacles
+from nodes.planner.geometry import Bounds, Obstacles, words
+from nodes.planner.reach import Reach, check_scene_reach, ur10e_reach
+from nodes.planner.transfer import CostModel
 
 State = Mapping[int, Pose2D]
+#: Poses closer than this (m, rad) are the same pose: an action between them does nothing.
+SAME_POSE_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -26,22 +31,29 @@ class PlanContext:
     workspace: Bounds
     table: Bounds
     ids: tuple[int, ...]
+    reach: Reach
+    cost: CostModel
 
     @classmethod
     def for_scene(cls, scene: Scene, config: PlannerConfig) -> PlanContext:
-        """Raises ValueError when the scene has more blocks than the masks hold."""
+        """Raises ValueError when the gripper does not fit the scene's blocks, MessageError
+        when a block or a goal slot is out of the arm's reach (naming it)."""
         config.check_block(scene.block_size)
-        ids = tuple(sorted(scene.block_ids))
-        if len(ids) > MAX_BLOCKS:
-            raise ValueError(f"{len(ids)} blocks: the planner handles at most {MAX_BLOCKS}")
+        reach = ur10e_reach()
+        check_scene_reach(scene, reach)
         w = scene.workspace
         workspace = Bounds(w.x_min, w.x_max, w.y_min, w.y_max)
         return cls(config, config.gripper(scene.block_size), workspace,
-                   workspace.grown(config.table_margin), ids)
+                   workspace.grown(config.table_margin), tuple(sorted(scene.block_ids)),
+                   reach, CostModel.of(config))
 
-    @property
+    @cached_property
     def bit_of(self) -> dict[int, int]:
         return {block: k for k, block in enumerate(self.ids)}
+
+    @property
+    def n_words(self) -> int:
+        return words(len(self.ids))
 
     def obstacles(self, state: State, exclude: Iterable[int], movable: Iterable[int]
                   ) -> Obstacles:
@@ -51,7 +63,8 @@ class PlanContext:
         poses = [state[b] for b in ids]
         corners = block_corners([p.x for p in poses], [p.y for p in poses],
                                 [p.theta for p in poses], self.geom.block_size)
-        return Obstacles(ids, corners.reshape(-1, 4, 2), [b in mov for b in ids], self.bit_of)
+        return Obstacles(ids, corners.reshape(-1, 4, 2), [b in mov for b in ids], self.bit_of,
+                         self.n_words)
 
 
 def at_pose(a: Pose2D, b: Pose2D, tol_xy: float, tol_yaw: float, yaw_exact: bool) -> bool:
@@ -59,6 +72,12 @@ def at_pose(a: Pose2D, b: Pose2D, tol_xy: float, tol_yaw: float, yaw_exact: bool
     period = 2.0 * math.pi if yaw_exact else 0.5 * math.pi
     return (math.hypot(a.x - b.x, a.y - b.y) <= tol_xy
             and abs(math.remainder(a.theta - b.theta, period)) <= tol_yaw)
+
+
+def same_pose(a: Pose2D, b: Pose2D, yaw_exact: bool) -> bool:
+    """Whether a block at a and at b looks the same (the cube's 90-degree symmetry unless
+    ``yaw_exact``): an action from a to b would do nothing."""
+    return at_pose(a, b, SAME_POSE_TOL, SAME_POSE_TOL, yaw_exact)
 
 
 def nearest_goal_yaw(goal: Pose2D, start_theta: float, yaw_exact: bool) -> Pose2D:

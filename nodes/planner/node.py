@@ -6,7 +6,7 @@ Subscribes ``/blocks/detected`` (MarkerArray) and ``/goal_layout`` (String); pub
 (std_srvs/Trigger). It plans once automatically as soon as it has a goal layout and a detection
 that shows every block (a block listed as ``missing`` is occluded: it waits for the next
 detection and says so). A bad goal or detection is reported on the log and in the status.
-Every goal kind is planned (``unlabeled.dispatch.plan_goal``): labeled with pIRS, unlabeled and
+Every goal kind is planned (``dispatch.plan_goal``): labeled with pIRS, unlabeled and
 retrieval (a labeled goal naming only some blocks) with rearrangement pebble graphs.
 """
 
@@ -30,9 +30,9 @@ from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.planner.cli import PLANNER_PARAMETERS
 from nodes.planner.config import PlannerConfig
+from nodes.planner.dispatch import check_goal, goal_kind, plan_goal
 from nodes.planner.markers import plan_markers
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.dispatch import check_goal, goal_kind, plan_goal
 
 
 def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str]:

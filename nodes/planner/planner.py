@@ -1,64 +1,37 @@
-"""The planner's one entry point: a scene with a labeled goal in, a validated plan out.
+"""pIRS for labeled goals: a scene in, a validated plan out.
 
-``plan_scene`` runs pIRS within the configured time budget, replays the result through the
-independent validator, and returns either a ``Plan`` (with every parameter, the scene and a
-unique id) or a failure naming the block and the reason. It never raises for a scene it
-cannot solve; it raises ``ValueError``/``MessageError`` only for input it cannot accept.
+``plan_scene`` builds the work cell's space (``cell_pirs.CellPirs``), runs pIRS (``pirs``)
+within the budget, merges two moves of a block where the plan allows (``shortcut``), drops
+what the plan does without and replays the result through the independent validator
+(``outcome.finish_plan``). It returns a plan with every parameter, or a failure naming the
+block and the reason, and the certified lower bound either way (``bound``); it raises
+``ValueError``/``MessageError`` only for input it cannot accept.
 """
 
 from __future__ import annotations
 
-import time
-import uuid
-from collections.abc import Callable
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from msgs_py import MessageError, PickPlace, Plan, Scene
-from msgs_py.actions import Action
+from msgs_py import MessageError, Scene
+from nodes.planner.assembly import Assembly
+from nodes.planner.bound import LowerBound, labeled_bound
+from nodes.planner.budget import Budget
+from nodes.planner.cell_pirs import CellPirs
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext, at_pose
-from nodes.planner.search import PlanningFailure, Search
+from nodes.planner.outcome import PlanOutcome, failed, finish_plan
+from nodes.planner.pirs import Pirs, PirsOptions, PlanningFailure
 from nodes.planner.shortcut import shortcut
-from nodes.planner.validator import validate_plan
 
 PLANNER_NAME = "pirs"
 
 
-@dataclass(frozen=True)
-class PlanOutcome:
-    plan: Plan | None
-    planning_time_s: float
-    lower_bound: int
-    error: str = ""
-    failed_block: int | None = None
-    metrics: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        return self.plan is not None
-
-
-def lower_bound(scene: Scene, config: PlannerConfig) -> int:
-    """Actions at least needed: blocks not already on their goal (labeled goals)."""
+def misplaced(scene: Scene, config: PlannerConfig) -> int:
+    """Blocks not already on their goal (labeled goals)."""
     yaw_exact = scene.goal is not None and scene.goal.yaw_exact
     return sum(not at_pose(scene.block(b).pose, goal, config.goal_tolerance_xy,
                            config.goal_tolerance_yaw, yaw_exact)
                for b, goal in scene.goal_assignment().items())
-
-
-def plan_cost(actions: list[Action], config: PlannerConfig) -> float:
-    """The plan's cost under the edge cost model (collisions are zero in a final plan)."""
-    cost = 0.0
-    for a in actions:
-        moved = a.from_.distance_to(a.to)
-        if isinstance(a, PickPlace):
-            cost += config.a1 + (config.a_dist * moved if config.distance_cost else 0.0)
-        else:
-            cost += config.a2 + ((config.a_dist + config.a_push_len) * moved
-                                 if config.distance_cost else 0.0)
-    return cost
 
 
 def check_scene(scene: Scene) -> None:
@@ -66,56 +39,58 @@ def check_scene(scene: Scene) -> None:
     if scene.goal is None:
         raise MessageError("goal", None, "the scene has no goal to plan for")
     if not scene.goal.labeled:
-        raise MessageError("labeled", False, "unlabeled goals (any block in any slot) are not "
-                           "supported by this planner yet (issue 7)")
+        raise MessageError("labeled", False, "pIRS plans labeled goals; unlabeled ones go to "
+                           "the pebble-graph planner")
 
 
-def plan_scene(scene: Scene, config: PlannerConfig, plan_id: str | None = None,
-               should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
-    """Plan ``scene`` (start blocks + labeled goal) with ``config``; ``should_stop`` (polled
-    between roadmap queries) ends the search early as a failure.
+def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None,
+               plan_id: str | None = None) -> PlanOutcome:
+    """Plan ``scene`` (start blocks + labeled goal) within ``budget`` (default: ``budget_s``
+    from now).
 
     Raises:
         MessageError: no goal, or an unlabeled goal.
         ValueError: a gripper/block combination the geometry cannot use.
     """
     check_scene(scene)
+    budget = budget or Budget.of(config.budget_s)
     ctx = PlanContext.for_scene(scene, config)
-    t0 = time.monotonic()
-    bound = lower_bound(scene, config)
     goals = scene.goal_assignment()
     start = {b.id: b.pose for b in scene.blocks}
-    metrics: dict[str, float] = {"lower_bound": float(bound), "n_blocks": float(len(start))}
+    yaw_exact = scene.goal.yaw_exact
+    assembly = Assembly(ctx, goals)
+    bound = labeled_bound(ctx, start, goals, yaw_exact, assembly)
+    metrics = {"lower_bound": float(bound.value), "misplaced": float(bound.misplaced),
+               "n_blocks": float(len(start))}
+    walled = assembly.stuck(0)
+    if walled:
+        return failed(budget, bound.value, f"block {walled[0]}: the goal layout walls in the "
+                      f"slots of blocks {walled}: in no order can they be set down or pushed "
+                      "in", walled[0], metrics)
+    space = CellPirs(ctx, goals, yaw_exact, np.random.default_rng(config.seed), assembly,
+                     bound.relaxation)
+    search = Pirs(space, frozenset(goals), frozenset(start) - frozenset(goals), budget,
+                  PirsOptions(config.probe, config.max_depth))
+    keep = _kept(space, assembly, bound, start)
     try:
-        search = Search(ctx, start, goals, scene.goal.yaw_exact,
-                        np.random.default_rng(config.seed), t0 + config.budget_s)
-        if should_stop is not None:
-            search.should_stop = should_stop
-        actions, _ = search.run()
-        metrics.update(search.stats.as_metrics())
-        if config.shortcut:
-            before = len(actions)
-            actions = shortcut(ctx, start, actions)
-            metrics["shortcut_saved"] = float(before - len(actions))
+        actions, _ = search.run(start, keep)
     except PlanningFailure as failure:
-        elapsed = time.monotonic() - t0
-        if "search" in locals():
-            metrics.update(search.stats.as_metrics())
-        return PlanOutcome(None, elapsed, bound, str(failure), failure.block, metrics)
-    elapsed = time.monotonic() - t0
-    plan = Plan(
-        actions=tuple(actions),
-        planner=PLANNER_NAME,
-        params=config.to_params(scene.block_size),
-        seed=config.seed,
-        planning_time_s=elapsed,
-        cost=plan_cost(actions, config),
-        plan_id=plan_id or uuid.uuid4().hex[:12],
-        scene=scene,
-    )
-    report = validate_plan(plan)
-    if not report.ok:
-        return PlanOutcome(None, elapsed, bound, "internal error: the plan failed replay "
-                           f"validation ({'; '.join(report.errors[:3])})", None, metrics)
-    metrics["actions"] = float(len(actions))
-    return PlanOutcome(plan, elapsed, bound, metrics=metrics)
+        metrics.update(search.stats.as_metrics())
+        return failed(budget, bound.value, str(failure), failure.block, metrics)
+    metrics.update(search.stats.as_metrics())
+    if config.shortcut:
+        before = len(actions)
+        actions = shortcut(ctx, start, actions)
+        metrics["shortcut_saved"] = float(before - len(actions))
+    return finish_plan(scene, config, actions, PLANNER_NAME, budget, bound.value, metrics,
+                       plan_id)
+
+
+def _kept(space: CellPirs, assembly: Assembly, bound: LowerBound, start) -> frozenset[int]:
+    """Blocks on their goal that the search first tries to leave there: those the bound's
+    best relaxed plan keeps, else as many as leave every other slot enterable."""
+    done = frozenset(b for b in space.goals if space.at_goal(b, start))
+    if bound.exact:
+        return done & bound.keep
+    kept = assembly.keepable(assembly.mask(done))
+    return frozenset(b for b in done if kept & assembly.bit[b])

@@ -1,21 +1,20 @@
 """The single-block PRM of Section III-B: sample poses, connect them with every feasible
 pick-and-place (per grasp) and push, Dijkstra from the start to the target.
 
-Pick-and-place feasibility decomposes per endpoint (fingers at the pick pose; fingers and block
-at the place pose), so it is computed once per node and grasp and combined for all pairs with
-numpy; the blocks hit are uint64 masks, Nc a popcount of their OR. Push edges only join poses
-of equal yaw on a line along a face normal, so they are searched within groups of equal yaw
-(the push-line samples), and their swept areas are checked in one bulk query.
-
-Edge cost: ``a1*[pick_place] + a2*[push] + a3*Nc`` and, with ``distance_cost``,
-``+ a_dist * distance + a_push_len * push_length`` (the paper's proposed terms).
+Which single actions are feasible, which movable blocks they hit and what they cost is
+``transfer``'s business: pick-and-place feasibility splits per endpoint (fingers at the pick
+pose; fingers and block at the place pose), so it is computed once per node and grasp and
+combined for all pairs at once; Nc is the popcount of the OR of the hit masks. Push edges only
+join poses of equal yaw on a line along a face normal, so they are searched within groups of
+equal yaw (the push-line samples), and their swept areas are checked in one bulk query.
+Samples whose block centre the arm cannot reach are dropped.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,39 +22,19 @@ from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.actions import Action
 from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
 from nodes.planner.context import PlanContext, State
-from nodes.planner.geometry import Obstacles, popcount
+from nodes.planner.geometry import Obstacles, mask_to_ids, popcount
+from nodes.planner.pirs import NoRoute, Route
+from nodes.planner.transfer import grasp_checks, push_checks, push_line
 
-#: Tolerances (m) for "on a push line": off-line distance, and the shortest push.
-LINE_TOL = 1e-7
-MIN_PUSH = 1e-4
 #: Sampling gives up after this many rounds of rejection.
 SAMPLE_ROUNDS = 8
 
 
-@dataclass(frozen=True)
-class Route:
-    """A roadmap path for one block: its actions, the movable blocks it hits (O_b, in order
-    of first contact), its cost, and the footprints it touches (corners (R, 4, 2))."""
-
-    actions: tuple[Action, ...]
-    blocked: tuple[int, ...]
-    cost: float
-    end: Pose2D
-    region: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2)))
-
-
-@dataclass(frozen=True)
-class NoRoute:
-    """Why no path exists even through movable blocks."""
-
-    reason: str
-    fixed_blockers: tuple[int, ...] = ()
-
-
 def sample_poses(ctx: PlanContext, obstacles: Obstacles, n: int, rng: np.random.Generator,
                  draw) -> np.ndarray:
-    """``n`` poses (n, 3) from ``draw(rng, k) -> (k, 3)`` whose block lies inside the workspace
-    and clear of fixed blocks (rejection sampling, fewer if it keeps failing)."""
+    """``n`` poses (n, 3) from ``draw(rng, k) -> (k, 3)`` whose block lies inside the workspace,
+    clear of fixed blocks and in the arm's reach (rejection sampling, fewer if it keeps
+    failing)."""
     found: list[np.ndarray] = []
     have = 0
     for _ in range(SAMPLE_ROUNDS):
@@ -63,7 +42,7 @@ def sample_poses(ctx: PlanContext, obstacles: Obstacles, n: int, rng: np.random.
             break
         cand = draw(rng, 2 * (n - have) + 4)
         corners = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
-        ok = ctx.workspace.contains(corners)
+        ok = ctx.workspace.contains(corners) & ctx.reach.contains(cand[:, :2])
         fixed, _ = obstacles.query(corners[:, None])
         good = cand[ok & ~fixed]
         found.append(good[: n - have])
@@ -135,79 +114,49 @@ def plan_route(ctx: PlanContext, block: int, state: State, target: Pose2D,
 class _Graph:
     weight: np.ndarray  # (M, M) cheapest edge cost, inf where none
     kind: np.ndarray  # (M, M) 0/1 grasp of the best pick-place, 2 push
-    mask: np.ndarray  # (M, M) uint64 movable blocks hit by the best edge
-    pick_ok: np.ndarray  # (M, 2)
-    place_ok: np.ndarray  # (M, 2)
-    block_fixed: np.ndarray  # (M,)
+    mask: np.ndarray  # (M, M, W) movable blocks hit by the best edge
+    fingers_ok: np.ndarray  # (M, 2)
+    block_ok: np.ndarray  # (M,)
     pushes: dict[tuple[int, int], tuple[float, float, float]]  # (i, j) -> dx, dy, L
 
 
 def _build_graph(ctx: PlanContext, nodes: np.ndarray, obstacles: Obstacles) -> _Graph:
-    cfg, geom = ctx.config, ctx.geom
     m = len(nodes)
-    x, y, th = nodes[:, 0], nodes[:, 1], nodes[:, 2]
-    fingers = grasp_finger_corners(geom, x[:, None], y[:, None], th[:, None], np.arange(2))
-    f_fixed, f_mask = obstacles.query(fingers.reshape(m * 2, 2, 4, 2))
-    f_fixed, f_mask = f_fixed.reshape(m, 2), f_mask.reshape(m, 2)
-    f_in = ctx.table.contains(fingers).all(axis=-1)
-    blocks = block_corners(x, y, th, geom.block_size)
-    b_fixed, b_mask = obstacles.query(blocks[:, None])
-    b_in = ctx.workspace.contains(blocks)
-    pick_ok = ~f_fixed & f_in
-    place_ok = pick_ok & (~b_fixed & b_in)[:, None]
-    place_mask = f_mask | b_mask[:, None]
-    dist = np.hypot(x[:, None] - x[None, :], y[:, None] - y[None, :])
-    per_m = cfg.a_dist if cfg.distance_cost else 0.0
-    costs = np.empty((2, m, m))
-    masks = np.empty((2, m, m), dtype=np.uint64)
-    for g in range(2):
-        masks[g] = f_mask[:, None, g] | place_mask[None, :, g]
-        costs[g] = cfg.a1 + cfg.a3 * popcount(masks[g]) + per_m * dist
-        costs[g][~(pick_ok[:, None, g] & place_ok[None, :, g])] = np.inf
-    grasp = np.argmin(costs, axis=0)
-    weight = np.take_along_axis(costs, grasp[None], 0)[0]
-    mask = np.take_along_axis(masks, grasp[None], 0)[0]
+    grasps = grasp_checks(ctx, obstacles, nodes)
+    ok, hit = grasps.pick_place(np.arange(m)[:, None], np.arange(m)[None, :], ctx.reach)
+    moved = np.hypot(nodes[:, None, 0] - nodes[None, :, 0], nodes[:, None, 1] - nodes[None, :, 1])
+    costs = np.where(ok, ctx.cost.pick_place(moved[..., None], popcount(hit)), np.inf)
+    grasp = np.argmin(costs, axis=-1)  # (M, M): ties go to grasp 0
+    weight = np.take_along_axis(costs, grasp[..., None], -1)[..., 0]
+    mask = np.take_along_axis(hit, grasp[..., None, None], 2)[:, :, 0]
     np.fill_diagonal(weight, np.inf)
-    graph = _Graph(weight, grasp.astype(np.int8), mask, pick_ok, place_ok, b_fixed, {})
+    graph = _Graph(weight, grasp.astype(np.int8), mask, grasps.fingers_ok, grasps.block_ok, {})
     _add_pushes(ctx, graph, nodes, obstacles)
     return graph
 
 
 def _add_pushes(ctx: PlanContext, graph: _Graph, nodes: np.ndarray, obstacles: Obstacles
                 ) -> None:
-    cfg = ctx.config
     key = np.round(np.mod(nodes[:, 2], 2.0 * math.pi) * 1e9).astype(np.int64)
     order = np.argsort(key, kind="stable")
-    groups = np.split(order, np.flatnonzero(np.diff(key[order])) + 1)
-    cand: list[tuple[int, int, float, float, float]] = []
-    for group in groups:
-        if len(group) < 2:
-            continue
-        normals = face_normals(nodes[group[0], 2])  # (4, 2)
-        p = nodes[group, :2]
-        v = p[None, :, :] - p[:, None, :]  # (g, g, 2): from a to b
-        along = v @ normals.T  # (g, g, 4)
-        cross = v[..., None, 0] * normals[:, 1] - v[..., None, 1] * normals[:, 0]
-        ok = (np.abs(cross) < LINE_TOL) & (along > MIN_PUSH)
-        for a, b, k in zip(*np.nonzero(ok), strict=True):
-            cand.append((int(group[a]), int(group[b]), float(normals[k, 0]), float(normals[k, 1]),
-                         float(along[a, b, k])))
-    if not cand:
+    groups = [g for g in np.split(order, np.flatnonzero(np.diff(key[order])) + 1) if len(g) > 1]
+    if not groups:
         return
-    arr = np.array(cand)
-    i, j = arr[:, 0].astype(int), arr[:, 1].astype(int)
-    corners = push_corners(ctx.geom, nodes[i, 0], nodes[i, 1], arr[:, 2], arr[:, 3], arr[:, 4])
-    fixed, mask = obstacles.query(corners)
-    inside = ctx.workspace.contains(corners[:, 0]) & ctx.table.contains(corners[:, 1:]).all(-1)
-    per_m = (cfg.a_dist + cfg.a_push_len) if cfg.distance_cost else 0.0
-    cost = cfg.a2 + cfg.a3 * popcount(mask) + per_m * arr[:, 4]
-    for n in np.flatnonzero(~fixed & inside):
+    i = np.concatenate([np.repeat(g, len(g)) for g in groups])
+    j = np.concatenate([np.tile(g, len(g)) for g in groups])
+    on_line, d, length = push_line(nodes[i], nodes[j])
+    i, j, d, length = i[on_line], j[on_line], d[on_line], length[on_line]
+    if not len(i):
+        return
+    ok, hit = push_checks(ctx, obstacles, nodes[i], d, length)
+    cost = ctx.cost.push(length, popcount(hit))
+    for n in np.flatnonzero(ok):
         a, b = i[n], j[n]
         if cost[n] < graph.weight[a, b]:
             graph.weight[a, b] = cost[n]
             graph.kind[a, b] = 2
-            graph.mask[a, b] = mask[n]
-            graph.pushes[(a, b)] = (arr[n, 2], arr[n, 3], arr[n, 4])
+            graph.mask[a, b] = hit[n]
+            graph.pushes[(a, b)] = (d[n, 0], d[n, 1], length[n])
 
 
 def _dijkstra(weight: np.ndarray, source: int, targets: int) -> tuple[np.ndarray, np.ndarray]:
@@ -258,10 +207,9 @@ def _route(ctx: PlanContext, block: int, graph: _Graph, nodes: np.ndarray, prev:
                           .reshape(-1, 4, 2))
             region.append(grasp_finger_corners(geom, to.x, to.y, to.theta, kind).reshape(-1, 4, 2))
             region.append(block_corners(to.x, to.y, to.theta, geom.block_size).reshape(-1, 4, 2))
-        mask = int(graph.mask[a, b])
-        for bit in range(len(ctx.ids)):
-            if mask >> bit & 1 and ctx.ids[bit] not in blocked:
-                blocked.append(ctx.ids[bit])
+        for hit in mask_to_ids(graph.mask[a, b], ctx.ids):
+            if hit not in blocked:
+                blocked.append(hit)
         actions.append(action)
         pose = action.to
     return Route(tuple(actions), tuple(blocked), cost, pose, np.concatenate(region))
@@ -275,7 +223,9 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
     target_block = block_corners(tx, ty, tt, geom.block_size)[None]
     if not ctx.workspace.contains(target_block)[0]:
         return NoRoute("its target pose leaves the workspace")
-    if graph.block_fixed[1]:
+    if not ctx.reach.contains(nodes[1, :2]):
+        return NoRoute(f"its target pose is out of the arm's reach ({ctx.reach.describe()})")
+    if not graph.block_ok[1]:
         ids = obstacles.fixed_ids_hit(target_block[:, None])
         return NoRoute(f"its target pose overlaps placed block(s) {ids}", tuple(ids))
     if not np.isfinite(graph.weight[:, 1:1 + n_ends]).any():
@@ -283,6 +233,8 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
         ids = obstacles.fixed_ids_hit(fingers.reshape(1, -1, 4, 2))
         return NoRoute(f"no grasp or push reaches its target: fingers hit placed block(s) {ids} "
                        "or leave the table, and no push lane into it is free", tuple(ids))
+    if not ctx.reach.contains(nodes[0, :2]):
+        return NoRoute(f"it stands out of the arm's reach ({ctx.reach.describe()})")
     if not np.isfinite(graph.weight[0]).any():
         sx, sy, st = nodes[0]
         fingers = grasp_finger_corners(geom, sx, sy, st, np.arange(2))

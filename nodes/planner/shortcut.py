@@ -5,22 +5,16 @@ the start of a push). If one action can do both, either at the time of the first
 block goes straight to its final pose early) or at the time of the second (it stays where it
 was in between), and every action in between stays feasible with the block at that other pose,
 the two actions become one. Feasibility is checked with the planner's geometry
-(``transfers.direct_transfers``: no contact with any block); the independent replay validator
+(``transfer.direct_transfers``: no contact with any block); the independent replay validator
 still checks the result. Greedy and deterministic: earliest pair first, until nothing merges.
 """
 
 from __future__ import annotations
 
-from msgs_py import PickPlace, Pose2D, Push
+from msgs_py import Pose2D, Push
 from msgs_py.actions import Action
 from nodes.planner.context import PlanContext
-from nodes.planner.transfers import DirectTransfer, direct_transfers
-
-
-def _as_action(block: int, start: Pose2D, end: Pose2D, t: DirectTransfer) -> Action:
-    if t.kind == "push":
-        return Push.between(block, start, end)
-    return PickPlace(block, start, end, t.grasp)
+from nodes.planner.transfer import direct_transfers
 
 
 def _redo(ctx: PlanContext, state: dict[int, Pose2D], action: Action) -> Action | None:
@@ -34,14 +28,14 @@ def _redo(ctx: PlanContext, state: dict[int, Pose2D], action: Action) -> Action 
     if same:
         return action
     pp = [t for t in options if t.kind == "pick_place"]
-    return _as_action(action.block, action.from_, action.to, pp[0]) if pp else None
+    return pp[0].action(action.block, action.from_, action.to) if pp else None
 
 
 def _merged(ctx: PlanContext, state: dict[int, Pose2D], block: int, start: Pose2D,
             end: Pose2D) -> Action | None:
     others = {b: p for b, p in state.items() if b != block}
     options = [t for t in direct_transfers(ctx, others, start, end) if not t.hits]
-    return _as_action(block, start, end, options[0]) if options else None
+    return options[0].action(block, start, end) if options else None
 
 
 def _replay(ctx: PlanContext, state: dict[int, Pose2D], actions: list[Action]

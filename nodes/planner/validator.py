@@ -7,7 +7,8 @@ vectorised corner arithmetic), swept areas are convex hulls of the start and end
 an obstacle (the planner distinguishes fixed from movable). Geometry comes only from the
 plan's own ``params``, so a plan read back from JSON is checked on its own.
 
-For every action: the block exists and stands at ``from``; a pick-and-place's fingers at both
+For every action: the block exists and stands at ``from``; the action moves it (``to`` is not
+``from`` again, yaw modulo 90 degrees unless yaw_exact); a pick-and-place's fingers at both
 ends and its block at ``to`` overlap no other block, the open gripper fits the stroke; a
 push goes along a face normal of the block, keeps the yaw, and the swept block and fingertips
 overlap no other block; the block stays in the workspace and the fingers on the table. At
@@ -21,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 from shapely import affinity
 from shapely.geometry import Polygon, box
 
@@ -60,6 +62,11 @@ class _Replay:
         m = self.p["table_margin"]
         self.table = box(w.x_min - m, w.y_min - m, w.x_max + m, w.y_max + m)
         self.poses = {b.id: b.pose for b in scene.blocks}
+        self._squares: dict[int, tuple[Pose2D, Polygon]] = {}
+        self._order = sorted(self.poses)
+        self._row = {b: k for k, b in enumerate(self._order)}
+        self._bounds = np.array([self.square(self.poses[b]).bounds for b in self._order]
+                                ).reshape(-1, 4)
         self.errors: list[str] = []
 
     def square(self, pose: Pose2D) -> Polygon:
@@ -89,9 +96,26 @@ class _Replay:
             pads.append(ends[0].union(ends[1]).convex_hull)
         return swept_block, pads
 
+    def standing(self, block: int) -> Polygon:
+        """The footprint of a block where it stands (kept until it moves)."""
+        pose = self.poses[block]
+        known = self._squares.get(block)
+        if known is None or known[0] != pose:
+            known = (pose, self.square(pose))
+            self._squares[block] = known
+        return known[1]
+
+    def moved(self, block: int, pose: Pose2D) -> None:
+        self.poses[block] = pose
+        self._bounds[self._row[block]] = self.standing(block).bounds
+
     def hits(self, k: int, moving: int, shape: Polygon, what: str) -> None:
-        for other, pose in sorted(self.poses.items()):
-            if other != moving and shape.intersection(self.square(pose)).area > AREA_TOL:
+        x0, y0, x1, y1 = shape.bounds
+        b = self._bounds
+        near = (b[:, 0] <= x1) & (b[:, 2] >= x0) & (b[:, 1] <= y1) & (b[:, 3] >= y0)
+        for row in np.flatnonzero(near):  # bounding boxes apart: no overlap
+            other = self._order[row]
+            if other != moving and shape.intersection(self.standing(other)).area > AREA_TOL:
                 self.errors.append(f"action {k}: {what} overlaps block {other}")
 
     def inside(self, k: int, shape: Polygon, region: Polygon, what: str) -> None:
@@ -108,6 +132,15 @@ class _Replay:
         if abs(p["block_size"] - self.scene.block_size) > 1e-12:
             self.errors.append("params: block_size differs from the scene's")
 
+    def check_moves(self, k: int, a: PickPlace | Push) -> None:
+        """An action whose block ends where it started (the cube looks the same every quarter
+        turn) does nothing but cost time and risk."""
+        goal = self.scene.goal
+        period = 2 * math.pi if goal is not None and goal.yaw_exact else 0.5 * math.pi
+        if (math.hypot(a.to.x - a.from_.x, a.to.y - a.from_.y) <= POSE_TOL
+                and abs(math.remainder(a.to.theta - a.from_.theta, period)) <= POSE_TOL):
+            self.errors.append(f"action {k}: block {a.block} ends where it started")
+
     def step(self, k: int, a: PickPlace | Push) -> None:
         if a.block not in self.poses:
             self.errors.append(f"action {k}: unknown block {a.block}")
@@ -117,6 +150,7 @@ class _Replay:
                 or abs(math.remainder(now.theta - a.from_.theta, 2 * math.pi)) > POSE_TOL):
             self.errors.append(f"action {k}: block {a.block} is at {now.to_dict()}, "
                                f"not at 'from' {a.from_.to_dict()}")
+        self.check_moves(k, a)
         self.inside(k, self.square(a.to), self.workspace, f"block {a.block} at 'to'")
         if isinstance(a, PickPlace):
             for where, pose in (("pick", a.from_), ("place", a.to)):
@@ -134,7 +168,7 @@ class _Replay:
             for pad in pads:
                 self.hits(k, a.block, pad, "a pushing fingertip's sweep")
                 self.inside(k, pad, self.table, "a pushing fingertip's sweep")
-        self.poses[a.block] = a.to
+        self.moved(a.block, a.to)
 
     def check_goal(self, tol_xy: float, tol_yaw: float) -> None:
         goal = self.scene.goal

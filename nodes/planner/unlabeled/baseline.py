@@ -9,17 +9,19 @@ labeled goal, and the plan is checked again against the original unlabeled goal.
 from __future__ import annotations
 
 import dataclasses
-import time
-from collections.abc import Callable
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from msgs_py import Goal, GoalSlot, Scene
+from nodes.planner.assembly import Assembly
+from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
-from nodes.planner.planner import PlanOutcome, plan_scene
+from nodes.planner.context import PlanContext
+from nodes.planner.outcome import PlanOutcome, failed
+from nodes.planner.planner import plan_scene
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.planner import check_unlabeled, unlabeled_lower_bound
+from nodes.planner.unlabeled.planner import certified_bound, check_unlabeled
 from nodes.planner.validator import validate_plan
 
 PLANNER_NAME = "assignment_pirs"
@@ -41,33 +43,27 @@ def labeled_goal(scene: Scene, assignment: dict[int, int]) -> Goal:
 
 
 def plan_assignment(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                    plan_id: str | None = None,
-                    should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
+                    budget: Budget | None = None, plan_id: str | None = None) -> PlanOutcome:
     """Min-cost assignment, then pIRS; the outcome's plan carries the unlabeled scene.
 
     Raises:
         MessageError: no goal, a labeled goal, or ``yaw_exact``.
     """
     check_unlabeled(scene)
-    t0 = time.monotonic()
-    bound = unlabeled_lower_bound(scene, config)
-    assignment = assign_slots(scene)
-    labeled = scene.with_goal(labeled_goal(scene, assignment))
-    remaining = max(config.budget_s - (time.monotonic() - t0), 1e-3)
-    outcome = plan_scene(labeled, dataclasses.replace(config, budget_s=remaining), plan_id,
-                         should_stop)
-    elapsed = time.monotonic() - t0
-    metrics = dict(outcome.metrics)
-    metrics["lower_bound"] = float(bound)
+    budget = budget or Budget.of(config.budget_s)
+    labeled = scene.with_goal(labeled_goal(scene, assign_slots(scene)))
+    outcome = plan_scene(labeled, config, budget, plan_id)
+    ctx = PlanContext.for_scene(scene, config)
+    slots = scene.goal.slot_poses(scene.block_size)
+    bound = certified_bound(ctx, scene, Assembly(ctx, dict(enumerate(slots))))
+    metrics = {**outcome.metrics, "lower_bound": float(bound)}
     if outcome.plan is None:
-        return PlanOutcome(None, elapsed, bound, outcome.error, outcome.failed_block, metrics)
-    params = dict(outcome.plan.params)
-    params.update(ucfg.to_params())
+        return failed(budget, bound, outcome.error, outcome.failed_block, metrics)
+    params = {**outcome.plan.params, **ucfg.to_params()}
     plan = dataclasses.replace(outcome.plan, planner=PLANNER_NAME, params=params, scene=scene,
-                               planning_time_s=elapsed)
+                               planning_time_s=budget.elapsed())
     report = validate_plan(plan)
     if not report.ok:
-        return PlanOutcome(None, elapsed, bound, "internal error: the assigned plan fails the "
-                           f"unlabeled goal ({'; '.join(report.errors[:3])})", None, metrics)
-    return PlanOutcome(plan, elapsed, bound, metrics=metrics)
-
+        return failed(budget, bound, "internal error: the assigned plan fails the unlabeled "
+                      f"goal ({'; '.join(report.errors[:3])})", None, metrics)
+    return PlanOutcome(plan, budget.elapsed(), bound, metrics=metrics)

@@ -12,7 +12,10 @@ exist as nodes), so graphs are *proposed* from the arrangement at hand instead: 
 plus ``b`` new sites, which are the next goal slots in assembly order and/or buffer sites out
 of the way. Inside the new graph the unlabeled solver moves the blocks to the best arrangement
 of their class (goal slots first, nothing left on a site that blocks a goal slot), and useful
-arcs are taken (a spare block pushed into a slot only reachable one way). The search over
+arcs are taken (a spare block pushed into a slot only reachable one way). Two single moves
+join graphs that cannot share an arrangement: a block overlapping a slot moved straight onto
+it, and a block on a filled slot slid into a free slot no other block can reach (walled in),
+leaving its own slot on the outside. The search over
 these hypernodes is weighted A*: g = actions so far, h = a lower bound on the actions left
 (unfilled slots, blocks that must still leave their site).
 """
@@ -21,76 +24,32 @@ from __future__ import annotations
 
 import heapq
 import itertools
-import time
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 
+from nodes.planner.budget import Budget
+from nodes.planner.unlabeled.arrangements import ArrangementGoal, SearchSpace, SiteClasses
 from nodes.planner.unlabeled.rpg import (
     RearrangementPebbleGraph,
     Site,
     Transfer,
-    TransferSpace,
     best_arrangement,
     build_rpg,
 )
 
-
-class SearchSpace(TransferSpace, Protocol):
-    """What the search needs beyond transfers: fresh buffer sites and what is in the way."""
-
-    def buffers(self, nodes: Collection[Site], near: Sequence[Site], count: int,
-                rng: np.random.Generator) -> list[Site]:
-        """Up to ``count`` new sites, compatible with ``nodes`` and with each other, out of
-        the goal's way, preferably close to the sites ``near``."""
-        ...
-
-    def obstructs(self, site: Site) -> bool:
-        """The site is in the goal's way (e.g. in the goal area but not a slot)."""
-        ...
-
-    def transfer(self, u: Site, v: Site, occupied: frozenset[Site]) -> Transfer | None:
-        """The cheapest transfer u -> v while the sites ``occupied`` hold blocks."""
-        ...
-
-
-def _never(site: Site) -> bool:
-    return False
-
-
-def _nothing(arrangement: frozenset[Site]) -> int:
-    return 0
-
-
-@dataclass(frozen=True)
-class ArrangementGoal:
-    """Sites that must hold a block (in the order to fill them), sites that must be empty,
-    and an estimate of the extra actions an arrangement still implies beyond one per
-    unfilled slot (e.g. pushes the geometry will force), added to the search heuristic."""
-
-    required: tuple[Site, ...]
-    forbidden: Callable[[Site], bool] = _never
-    extra: Callable[[frozenset[Site]], int] = _nothing
-    #: The unfilled required sites in the order to fill them from an arrangement (default:
-    #: ``required``'s order); lets the geometry re-plan the order as slots get filled.
-    order: Callable[[frozenset[Site]], Sequence[Site]] | None = None
-
-    def unfilled(self, arrangement: frozenset[Site]) -> list[Site]:
-        if self.order is not None:
-            return [s for s in self.order(arrangement) if s not in arrangement]
-        return [s for s in self.required if s not in arrangement]
+__all__ = ["ArrangementGoal", "HypergraphSearch", "HypergraphStats", "SearchConfig",
+           "SearchFailure", "SearchSpace"]
 
 
 @dataclass(frozen=True)
 class SearchConfig:
     b: int = 2  # extra empty nodes per RPG
     weight: float = 1.5  # A* weight on the heuristic
-    deadline: float = float("inf")  # time.monotonic() deadline
+    budget: Budget | None = None  # time and stop request (None: no limit)
     max_expansions: int = 5000
     max_proposals: int = 4  # RPGs proposed per expansion
-    should_stop: Callable[[], bool] | None = None  # polled per expansion: give up when True
 
 
 @dataclass
@@ -127,6 +86,17 @@ class _Node:
     goal: bool = False
 
 
+@dataclass
+class _Frontier:
+    """The open hypernodes of one run, what has been seen, and the best goal so far."""
+
+    heap: list[tuple]
+    seen: dict[frozenset[Site], int]
+    best_h: int
+    best_goal: _Node | None = None
+    tie: Iterator[int] = field(default_factory=itertools.count)
+
+
 class HypergraphSearch:
     """Weighted A* over hypernodes; ``run`` returns the transfers from start to goal."""
 
@@ -141,56 +111,9 @@ class HypergraphSearch:
         self.stats = HypergraphStats()
         self._rpgs: dict[frozenset[Site], RearrangementPebbleGraph] = {}
         self._hyper: dict[tuple[frozenset[Site], tuple[int, ...]], int] = {}
-        self._hard: dict[Site, bool] = {}
-        self._soft: dict[Site, bool] = {}
-        self._blocking: dict[Site, float] = {}
+        self.sites = SiteClasses(space, goal)
         if config.b < 0:
             raise ValueError(f"b must be >= 0, got {config.b}")
-
-    # --- site classes ----------------------------------------------------------------------
-    def hard_bad(self, site: Site) -> bool:
-        """A block on this site must leave: forbidden, or overlapping a goal slot."""
-        if site not in self._hard:
-            self._hard[site] = site not in self.required and (
-                self.goal.forbidden(site)
-                or any(self.space.conflicts(site, g) for g in self.goal.required))
-        return self._hard[site]
-
-    def soft_bad(self, site: Site) -> bool:
-        if site not in self._soft:
-            self._soft[site] = site not in self.required and self.space.obstructs(site)
-        return self._soft[site]
-
-    def blocking(self, site: Site) -> float:
-        """How much a block on ``site`` is in the way: the goal slots it overlaps, early
-        ones (in fill order) weighing more; a forbidden site weighs like a whole goal."""
-        if site not in self._blocking:
-            n = len(self.goal.required)
-            weight = sum(1.0 + (n - k) / n for k, g in enumerate(self.goal.required)
-                         if self.space.conflicts(site, g))
-            if self.goal.forbidden(site):
-                weight += 2.0 * max(n, 1)
-            self._blocking[site] = weight
-        return self._blocking[site]
-
-    def rank(self, site: Site) -> float:
-        """Which sites an arrangement should occupy first (low) and leave first (high)."""
-        if site in self.required:
-            return 0.0
-        if self.hard_bad(site):
-            return 3.0 + 1e-3 * self.blocking(site)
-        return 2.0 if self.soft_bad(site) else 1.0
-
-    def progress(self, arrangement: frozenset[Site]) -> int:
-        """Tie-break between equally good hypernodes: slots early in the fill order count
-        more (filling a slot before the ones behind it can wall them in)."""
-        n = len(self.goal.required)
-        return sum(n - i for i, s in enumerate(self.goal.required) if s in arrangement)
-
-    def heuristic(self, arrangement: frozenset[Site]) -> int:
-        unfilled = len(self.required - arrangement)
-        leaving = sum(1 for s in arrangement if self.hard_bad(s))
-        return max(unfilled, leaving) + self.goal.extra(arrangement)
 
     # --- graphs ----------------------------------------------------------------------------
     def rpg(self, nodes: frozenset[Site]) -> RearrangementPebbleGraph:
@@ -229,8 +152,9 @@ class HypergraphSearch:
         unfilled = self.goal.unfilled(arrangement)
         free = [s for s in unfilled
                 if not any(self.space.conflicts(s, a) for a in arrangement)]
-        offenders = sorted((a for a in arrangement if self.hard_bad(a) or self.soft_bad(a)),
-                           key=lambda a: (-self.rank(a), a))
+        sites = self.sites
+        offenders = sorted((a for a in arrangement if sites.hard_bad(a) or sites.soft_bad(a)),
+                           key=lambda a: (-sites.rank(a), a))
         movers = offenders or [a for a in sorted(arrangement) if a not in self.required]
         j_max = min(b, len(free))
         picks: list[tuple[list[Site], int, bool]] = []
@@ -264,11 +188,12 @@ class HypergraphSearch:
             if transfer(u, slot, frozenset()) is None:
                 continue
             away = set(arrangement - {u})
-            for a in sorted(away, key=lambda a: (self.rank(a) != 0.0, -self.rank(a), a)):
+            rank = self.sites.rank
+            for a in sorted(away, key=lambda a: (rank(a) != 0.0, -rank(a), a)):
                 if transfer(u, slot, frozenset(arrangement - {u} - (away - {a}))) is not None:
                     away.discard(a)  # it can stay
-            found.append(sorted(away, key=lambda a: (self.rank(a) == 0.0, a)))
-        return sorted(found, key=lambda g: (len(g), sum(self.rank(a) == 0.0 for a in g)))
+            found.append(sorted(away, key=lambda a: (self.sites.rank(a) == 0.0, a)))
+        return sorted(found, key=lambda g: (len(g), sum(self.sites.rank(a) == 0.0 for a in g)))
 
     def unblock(self, arrangement: frozenset[Site]
                 ) -> tuple[frozenset[Site], frozenset[Site]] | None:
@@ -296,7 +221,7 @@ class HypergraphSearch:
         out = []
         unfilled = self.goal.unfilled(arrangement)
         for a in sorted(arrangement):
-            if not self.hard_bad(a):
+            if not self.sites.hard_bad(a):
                 continue
             for g in unfilled:
                 if not self.space.conflicts(a, g):
@@ -305,6 +230,24 @@ class HypergraphSearch:
                 if any(self.space.conflicts(g, o) for o in others):
                     continue
                 t = self.space.transfer(a, g, others)
+                if t is not None:
+                    out.append(t)
+        return out
+
+    def slide_moves(self, arrangement: frozenset[Site]) -> list[Transfer]:
+        """Blocks on filled slots moved into a free slot that no other block can reach as
+        things stand (walled in by filled slots, the centre of a grid): the slot left behind
+        is on the outside, where a block can get in. A transition like ``overlap_moves``."""
+        out = []
+        transfer = self.space.transfer
+        outside = [u for u in sorted(arrangement) if u not in self.required]
+        for g in self.goal.unfilled(arrangement):
+            if any(self.space.conflicts(g, o) for o in arrangement):
+                continue
+            if any(transfer(u, g, arrangement - {u}) is not None for u in outside):
+                continue
+            for a in sorted(arrangement & self.required):
+                t = transfer(a, g, arrangement - {a})
                 if t is not None:
                     out.append(t)
         return out
@@ -323,7 +266,7 @@ class HypergraphSearch:
                 return 5.0
             if not evict and s not in arrangement and s not in self.required:
                 return 4.0
-            return self.rank(s)
+            return self.sites.rank(s)
         moves: list[Transfer] = []
         current = arrangement
         for _ in range(len(rpg.nodes) + 1):
@@ -347,7 +290,7 @@ class HypergraphSearch:
         need, spare, crowded, room = [], [], [], []
         for k, comp in enumerate(rpg.components):
             req = sum(1 for s in comp if s in self.required)
-            good = sum(1 for s in comp if self.rank(s) <= 1.0)
+            good = sum(1 for s in comp if self.sites.rank(s) <= 1.0)
             need.append(sig[k] < req)
             spare.append(sig[k] > req)
             crowded.append(sig[k] > good)
@@ -360,7 +303,7 @@ class HypergraphSearch:
             if not ((spare[a] and need[b]) or (crowded[a] and room[b] and not need[a])):
                 continue
             # Take a block that must leave its site anyway, not one a slot would then miss.
-            key = (t.n_actions, -self.rank(u), t.cost, u, v)
+            key = (t.n_actions, -self.sites.rank(u), t.cost, u, v)
             if best_key is None or key < best_key:
                 best, best_key = t, key
         return best
@@ -383,14 +326,14 @@ class HypergraphSearch:
         return _Node(arrangement, rpg,
                      parent.actions + sum(t.n_actions for t in moves),
                      parent.cost + sum(t.cost for t in moves), moves, parent,
-                     self.heuristic(arrangement), self.progress(arrangement))
+                     self.sites.heuristic(arrangement), self.sites.progress(arrangement))
 
     def slid(self, parent: _Node, t: Transfer) -> _Node:
         """The hypernode after an overlap move: the new arrangement in its own graph."""
         arrangement = (parent.arrangement - {t.source}) | {t.target}
         return _Node(arrangement, self.rpg(arrangement), parent.actions + t.n_actions,
-                     parent.cost + t.cost, [t], parent, self.heuristic(arrangement),
-                     self.progress(arrangement))
+                     parent.cost + t.cost, [t], parent, self.sites.heuristic(arrangement),
+                     self.sites.progress(arrangement))
 
     def run(self) -> list[Transfer]:
         """Transfers from the start arrangement to a goal arrangement.
@@ -403,60 +346,72 @@ class HypergraphSearch:
         Raises:
             SearchFailure: no goal hypernode reached within the deadline / expansions.
         """
-        cfg = self.config
         if self.required <= self.start and not any(self.goal.forbidden(s) for s in self.start):
             return []  # already there
-        root = _Node(self.start, None, 0, 0.0, [], None, self.heuristic(self.start))
-        tie = itertools.count()
-        heap = [(0.0, root.h, 0, 0.0, next(tie), root)]
-        seen: dict[frozenset[Site], int] = {root.arrangement: 0}
-        best_h = root.h
-        best_goal: _Node | None = None
-        while heap:
-            if cfg.should_stop is not None and cfg.should_stop():
-                raise SearchFailure("stopped on request", self.stats)
-            out_of_time = time.monotonic() > cfg.deadline
-            if out_of_time or self.stats.expansions >= cfg.max_expansions:
-                if best_goal is not None:
-                    return self.finish(best_goal)
-                why = ("time budget exhausted" if out_of_time else
-                       f"{cfg.max_expansions} expansions without reaching the goal")
-                raise SearchFailure(f"{why}; best arrangement still needed {best_h} actions",
-                                    self.stats)
-            *_, node = heapq.heappop(heap)
+        root = _Node(self.start, None, 0, 0.0, [], None, self.sites.heuristic(self.start))
+        front = _Frontier([(0.0, root.h, 0, 0.0, -1, root)], {root.arrangement: 0}, root.h)
+        while front.heap:
+            why = self._out_of_limits()
+            if why:
+                return self._give_up(front, why)
+            *_, node = heapq.heappop(front.heap)
             if node.goal:
                 return self.finish(node)
-            if seen.get(node.arrangement, -1) < node.actions:
+            if front.seen.get(node.arrangement, -1) < node.actions:
                 continue
             self.stats.expansions += 1
-            kids = [self.child(node, self.rpg(nodes), evict)
-                    for nodes, evict in self.proposals(node.arrangement)]
-            kids += [self.slid(node, t) for t in self.overlap_moves(node.arrangement)]
-            fresh = [kid for kid in kids if kid.arrangement not in seen]
-            if not any(kid.h < node.h for kid in fresh):
-                stuck = self.unblock(node.arrangement)
-                if stuck is not None:
-                    kids.append(self.child(node, self.rpg(stuck[0]), True, stuck[1]))
-            for kid in kids:
-                self.note_hypernode(kid.rpg, kid.arrangement)
-                if self.is_goal(kid.rpg, kid.arrangement):
-                    done = self.goal_entry(kid)
-                    if best_goal is None or (done.actions, done.cost) < (best_goal.actions,
-                                                                         best_goal.cost):
-                        best_goal = done
-                        heapq.heappush(heap, (float(done.actions), 0, -done.progress,
-                                              done.cost, next(tie), done))
-                    continue
-                if kid.arrangement in seen and seen[kid.arrangement] <= kid.actions:
-                    continue
-                seen[kid.arrangement] = kid.actions
-                best_h = min(best_h, kid.h)
-                f = kid.actions + cfg.weight * kid.h
-                heapq.heappush(heap, (f, kid.h, -kid.progress, kid.cost, next(tie), kid))
-        if best_goal is not None:
-            return self.finish(best_goal)
-        raise SearchFailure(f"the hypergraph ran out of hypernodes to expand; best "
-                            f"arrangement still needed {best_h} actions", self.stats)
+            for kid in self.expand(node, front.seen):
+                self._enqueue(kid, front)
+        return self._give_up(front, "the hypergraph ran out of hypernodes to expand")
+
+    def _out_of_limits(self) -> str:
+        """Why the search must stop now ('' if it need not); a stop request raises."""
+        cfg = self.config
+        if cfg.budget is not None and cfg.budget.stopped():
+            raise SearchFailure("stopped on request", self.stats)
+        if cfg.budget is not None and cfg.budget.expired():
+            return "time budget exhausted"
+        if self.stats.expansions >= cfg.max_expansions:
+            return f"{cfg.max_expansions} expansions without reaching the goal"
+        return ""
+
+    def _give_up(self, front: _Frontier, why: str) -> list[Transfer]:
+        if front.best_goal is not None:
+            return self.finish(front.best_goal)
+        raise SearchFailure(f"{why}; best arrangement still needed {front.best_h} actions",
+                            self.stats)
+
+    def expand(self, node: _Node, seen: dict[frozenset[Site], int]) -> list[_Node]:
+        """The hypernodes the proposed graphs, overlap and slide moves lead to from ``node``, and,
+        when none of the new ones gets closer, the graph that unblocks the next slot."""
+        kids = [self.child(node, self.rpg(nodes), evict)
+                for nodes, evict in self.proposals(node.arrangement)]
+        kids += [self.slid(node, t) for t in (*self.overlap_moves(node.arrangement),
+                                              *self.slide_moves(node.arrangement))]
+        fresh = [kid for kid in kids if kid.arrangement not in seen]
+        if not any(kid.h < node.h for kid in fresh):
+            stuck = self.unblock(node.arrangement)
+            if stuck is not None:
+                kids.append(self.child(node, self.rpg(stuck[0]), True, stuck[1]))
+        return kids
+
+    def _enqueue(self, kid: _Node, front: _Frontier) -> None:
+        """Queue ``kid``, or its goal entry when its class holds a goal arrangement."""
+        self.note_hypernode(kid.rpg, kid.arrangement)
+        if self.is_goal(kid.rpg, kid.arrangement):
+            done = self.goal_entry(kid)
+            best = front.best_goal
+            if best is None or (done.actions, done.cost) < (best.actions, best.cost):
+                front.best_goal = done
+                heapq.heappush(front.heap, (float(done.actions), 0, -done.progress, done.cost,
+                                            next(front.tie), done))
+            return
+        if kid.arrangement in front.seen and front.seen[kid.arrangement] <= kid.actions:
+            return
+        front.seen[kid.arrangement] = kid.actions
+        front.best_h = min(front.best_h, kid.h)
+        f = kid.actions + self.config.weight * kid.h
+        heapq.heappush(front.heap, (f, kid.h, -kid.progress, kid.cost, next(front.tie), kid))
 
     def goal_entry(self, node: _Node) -> _Node:
         """The goal reached from ``node``'s class: the final moves inside its graph."""
@@ -468,7 +423,7 @@ class HypergraphSearch:
             arrangement = (arrangement - {t.source}) | {t.target}
         return _Node(arrangement, rpg, node.actions + sum(t.n_actions for t in final),
                      node.cost + sum(t.cost for t in final), final, node, 0,
-                     self.progress(arrangement), goal=True)
+                     self.sites.progress(arrangement), goal=True)
 
     def finish(self, node: _Node) -> list[Transfer]:
         chain: list[_Node] = []

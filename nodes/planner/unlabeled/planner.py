@@ -10,20 +10,20 @@ Never raises for a scene it cannot solve: the outcome names the reason.
 
 from __future__ import annotations
 
-import time
-import uuid
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 import shapely
 
-from msgs_py import MessageError, Plan, Pose2D, Scene
-from msgs_py.actions import Action
+from msgs_py import MessageError, Pose2D, Scene
 from nodes.planner.assembly import Assembly
+from nodes.planner.bound import unlabeled_bound
+from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
-from nodes.planner.planner import PlanOutcome, plan_cost
+from nodes.planner.outcome import PlanOutcome, failed, finish_plan
 from nodes.planner.unlabeled.cell_geometry import CellSpace
+from nodes.planner.unlabeled.cell_transfers import realize_all
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.goal_check import on_slot, unfilled_slots
 from nodes.planner.unlabeled.hypergraph import (
@@ -32,9 +32,8 @@ from nodes.planner.unlabeled.hypergraph import (
     SearchConfig,
     SearchFailure,
 )
-from nodes.planner.unlabeled.rpg import Site, Transfer
+from nodes.planner.unlabeled.rpg import Site
 from nodes.planner.unlabeled.smoothing import n_actions, smooth
-from nodes.planner.validator import validate_plan
 
 PLANNER_NAME = "pebble_graphs"
 
@@ -50,10 +49,19 @@ def check_unlabeled(scene: Scene) -> None:
                            "degrees; yaw_exact is not supported for them")
 
 
-def unlabeled_lower_bound(scene: Scene, config: PlannerConfig) -> int:
-    """Actions at least needed: slots that no block stands on yet (each needs one)."""
+def unfilled(scene: Scene, config: PlannerConfig) -> int:
+    """Slots that no block stands on yet (each needs an action)."""
     return len(unfilled_slots(scene, (b.pose for b in scene.blocks), config.goal_tolerance_xy,
                               config.goal_tolerance_yaw))
+
+
+def certified_bound(ctx: PlanContext, scene: Scene, assembly: Assembly) -> int:
+    """``bound.unlabeled_bound`` for ``scene``."""
+    slots = scene.goal.slot_poses(scene.block_size)
+    empty = set(unfilled_slots(scene, (b.pose for b in scene.blocks),
+                               ctx.config.goal_tolerance_xy, ctx.config.goal_tolerance_yaw))
+    return unlabeled_bound(ctx, [b.pose for b in scene.blocks], slots,
+                           [k not in empty for k in range(len(slots))], assembly).value
 
 
 def make_space(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
@@ -69,38 +77,6 @@ def goal_zone(space: CellSpace, poses: Iterable[Pose2D]
     parked in the zone are in the way."""
     core = shapely.union_all(space.footprints_of(list(poses)))
     return shapely.buffer(core, space.buffer_clearance, join_style="mitre"), core
-
-
-def realize(space: CellSpace, block_at: Mapping[Site, int], poses: Mapping[int, Pose2D],
-            transfers: Iterable[Transfer]) -> list[Action]:
-    """The actions of ``transfers``: each moves the block standing on its source site."""
-    at, pose = dict(block_at), dict(poses)
-    actions: list[Action] = []
-    for t in transfers:
-        block = at.pop(t.source)
-        acts, pose[block] = space.realize(t, block, pose[block])
-        at[t.target] = block
-        actions += acts
-    return actions
-
-
-def finish_plan(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                actions: list[Action], planner: str, t0: float, bound: int,
-                metrics: dict[str, float], plan_id: str | None) -> PlanOutcome:
-    """Wrap, validate and report (shared by the pebble-graph planners)."""
-    elapsed = time.monotonic() - t0
-    params = config.to_params(scene.block_size)
-    params.update(ucfg.to_params())
-    plan = Plan(actions=tuple(actions), planner=planner, params=params, seed=config.seed,
-                planning_time_s=elapsed, cost=plan_cost(actions, config),
-                plan_id=plan_id or uuid.uuid4().hex[:12], scene=scene)
-    report = validate_plan(plan)
-    if not report.ok:
-        return PlanOutcome(None, elapsed, bound, "internal error: the plan failed replay "
-                           f"validation ({'; '.join(report.errors[:3])})", None, metrics)
-    metrics["actions"] = float(len(actions))
-    metrics["pushes"] = float(sum(a.type == "push" for a in actions))
-    return PlanOutcome(plan, elapsed, bound, metrics=metrics)
 
 
 def slot_sites(space: CellSpace, scene: Scene, block_sites: Mapping[int, Site],
@@ -120,30 +96,51 @@ def slot_sites(space: CellSpace, scene: Scene, block_sites: Mapping[int, Site],
 
 
 def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                   plan_id: str | None = None,
-                   should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
-    """Plan ``scene`` (start blocks + unlabeled goal) with rearrangement pebble graphs;
-    ``should_stop`` (polled between hypernode expansions) ends the search as a failure.
+                   budget: Budget | None = None, plan_id: str | None = None) -> PlanOutcome:
+    """Plan ``scene`` (start blocks + unlabeled goal) with rearrangement pebble graphs
+    within ``budget`` (default: ``budget_s`` from now; its stop request is polled between
+    hypernode expansions).
 
     Raises:
         MessageError: no goal, a labeled goal, or ``yaw_exact``.
         ValueError: a gripper/block combination the geometry cannot use.
     """
     check_unlabeled(scene)
-    t0 = time.monotonic()
-    bound = unlabeled_lower_bound(scene, config)
+    budget = budget or Budget.of(config.budget_s)
     slots = scene.goal.slot_poses(scene.block_size)
+    ctx, space = make_space(scene, config, ucfg, buffer_yaw=slots[0].theta if slots else 0.0)
+    assembly = Assembly(ctx, dict(enumerate(slots)))
+    bound = certified_bound(ctx, scene, assembly)
     metrics: dict[str, float] = {"lower_bound": float(bound), "n_blocks": float(len(scene.blocks)),
                                  "b": float(ucfg.b)}
-    ctx, space = make_space(scene, config, ucfg, buffer_yaw=slots[0].theta if slots else 0.0)
     block_sites = {b.id: space.add_site(b.pose) for b in scene.blocks}
     sites = slot_sites(space, scene, block_sites, config)
-    assembly = Assembly(ctx, dict(enumerate(slots)))
     walled = assembly.stuck(0)
     if walled:
-        return PlanOutcome(None, time.monotonic() - t0, bound, f"the goal layout walls in slots "
-                           f"{walled}: no order lets blocks be set down or pushed into them",
-                           None, metrics)
+        return failed(budget, bound, f"the goal layout walls in slots {walled}: no order lets "
+                      "blocks be set down or pushed into them", None, metrics)
+    search = _search(space, assembly, sites, block_sites.values(), ucfg, budget,
+                     np.random.default_rng(config.seed), slots)
+    try:
+        transfers = search.run()
+    except SearchFailure as failure:
+        metrics.update(failure.stats.as_metrics())
+        return failed(budget, bound, f"no plan: {failure.reason}", None, metrics)
+    metrics.update(search.stats.as_metrics())
+    metrics["actions_raw"] = float(n_actions(transfers))
+    if ucfg.smoothing:
+        transfers, _ = smooth(space, block_sites.values(), transfers)
+    block_at = {site: block for block, site in block_sites.items()}
+    poses = {b.id: b.pose for b in scene.blocks}
+    actions = realize_all(block_at, poses, transfers)
+    return finish_plan(scene, config, actions, PLANNER_NAME, budget, bound, metrics, plan_id,
+                       ucfg.to_params())
+
+
+def _search(space: CellSpace, assembly: Assembly, sites: list[Site], start: Iterable[Site],
+            ucfg: UnlabeledConfig, budget: Budget, rng: np.random.Generator,
+            slots: list[Pose2D]) -> HypergraphSearch:
+    """The hypergraph search filling the slot ``sites`` in assembly order."""
     required = tuple(sites[k] for k in assembly.order())
     bit = {site: 1 << k for k, site in enumerate(sites)}
 
@@ -158,23 +155,8 @@ def plan_unlabeled(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
 
     zone, core = goal_zone(space, slots)
     space.set_zone(zone, sites, core)
-    search = HypergraphSearch(
-        space, block_sites.values(), ArrangementGoal(required, extra=pushes_ahead, order=order),
-        SearchConfig(b=ucfg.b, weight=ucfg.weight, deadline=t0 + config.budget_s,
-                     max_expansions=ucfg.max_expansions, max_proposals=ucfg.max_proposals,
-                     should_stop=should_stop),
-        np.random.default_rng(config.seed))
-    try:
-        transfers = search.run()
-    except SearchFailure as failure:
-        metrics.update(failure.stats.as_metrics())
-        return PlanOutcome(None, time.monotonic() - t0, bound, f"no plan: {failure.reason}",
-                           None, metrics)
-    metrics.update(search.stats.as_metrics())
-    metrics["actions_raw"] = float(n_actions(transfers))
-    if ucfg.smoothing:
-        transfers, _ = smooth(space, block_sites.values(), transfers)
-    block_at = {site: block for block, site in block_sites.items()}
-    poses = {b.id: b.pose for b in scene.blocks}
-    actions = realize(space, block_at, poses, transfers)
-    return finish_plan(scene, config, ucfg, actions, PLANNER_NAME, t0, bound, metrics, plan_id)
+    return HypergraphSearch(
+        space, start, ArrangementGoal(required, extra=pushes_ahead, order=order),
+        SearchConfig(b=ucfg.b, weight=ucfg.weight, budget=budget,
+                     max_expansions=ucfg.max_expansions, max_proposals=ucfg.max_proposals),
+        rng)

@@ -11,18 +11,18 @@ then move the named block. A named block, once on its target, stays fixed.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import numpy as np
 import shapely
 
 from msgs_py import MessageError, Scene
 from msgs_py.actions import Action
 from nodes.planner.assembly import Assembly
+from nodes.planner.bound import labeled_bound
+from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import at_pose, nearest_goal_yaw
-from nodes.planner.planner import PlanOutcome, lower_bound
+from nodes.planner.outcome import PlanOutcome, failed, finish_plan
+from nodes.planner.unlabeled.cell_transfers import realize, realize_all
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.hypergraph import (
     ArrangementGoal,
@@ -30,7 +30,7 @@ from nodes.planner.unlabeled.hypergraph import (
     SearchConfig,
     SearchFailure,
 )
-from nodes.planner.unlabeled.planner import finish_plan, make_space, realize
+from nodes.planner.unlabeled.planner import make_space
 from nodes.planner.unlabeled.rpg import Site
 from nodes.planner.unlabeled.smoothing import n_actions, smooth
 
@@ -48,10 +48,9 @@ def is_retrieval(scene: Scene) -> bool:
 
 class _Retrieval:
     def __init__(self, scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                 deadline: float, should_stop: Callable[[], bool] | None) -> None:
+                 budget: Budget) -> None:
         self.scene, self.config, self.ucfg = scene, config, ucfg
-        self.deadline = deadline
-        self.should_stop = should_stop
+        self.budget = budget
         self.ctx, self.space = make_space(scene, config, ucfg)
         self.targets = scene.goal_assignment()
         self.pose = {b.id: b.pose for b in scene.blocks}
@@ -96,7 +95,7 @@ class _Retrieval:
                 last = f"could not clear its way: {failure.reason}"
                 continue
             space.set_fixed(named)
-            acts, self.pose[block] = space.realize(transfer, block, self.pose[block])
+            acts, self.pose[block] = realize(transfer, block, self.pose[block])
             self.actions += acts
             self.raw += transfer.n_actions
             self.site[block] = target
@@ -115,9 +114,8 @@ class _Retrieval:
         search = HypergraphSearch(
             space, start, goal,
             SearchConfig(b=max(self.ucfg.b, 1), weight=self.ucfg.weight,
-                         deadline=self.deadline, max_expansions=self.ucfg.max_expansions,
-                         max_proposals=self.ucfg.max_proposals,
-                         should_stop=self.should_stop), self.rng)
+                         budget=self.budget, max_expansions=self.ucfg.max_expansions,
+                         max_proposals=self.ucfg.max_proposals), self.rng)
         try:
             transfers = search.run()
         finally:
@@ -127,7 +125,7 @@ class _Retrieval:
         self.raw += n_actions(transfers)
         if self.ucfg.smoothing:
             transfers, _ = smooth(space, start, transfers)
-        acts = realize(space, start, self.pose, transfers)
+        acts = realize_all(start, self.pose, transfers)
         self.actions += acts
         for a in acts:
             self.pose[a.block] = a.to
@@ -146,8 +144,7 @@ class _Failed(Exception):
 
 
 def plan_retrieval(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
-                   plan_id: str | None = None,
-                   should_stop: Callable[[], bool] | None = None) -> PlanOutcome:
+                   budget: Budget | None = None, plan_id: str | None = None) -> PlanOutcome:
     """Plan a labeled goal that names only some blocks (see the module docstring).
 
     Raises:
@@ -159,19 +156,18 @@ def plan_retrieval(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
     if scene.goal.yaw_exact:
         raise MessageError("yaw_exact", True, "retrieval meets yaw modulo 90 degrees; use "
                            "the pirs method for yaw_exact goals")
-    t0 = time.monotonic()
-    bound = lower_bound(scene, config)
-    run = _Retrieval(scene, config, ucfg, t0 + config.budget_s, should_stop)
+    budget = budget or Budget.of(config.budget_s)
+    run = _Retrieval(scene, config, ucfg, budget)
+    bound = labeled_bound(run.ctx, run.pose, run.targets, False).value
     metrics: dict[str, float] = {"lower_bound": float(bound),
                                  "n_blocks": float(len(scene.blocks))}
     try:
         run.run()
     except _Failed as failure:
         metrics.update(run.stats)
-        return PlanOutcome(None, time.monotonic() - t0, bound,
-                           f"block {failure.block}: {failure.reason}", failure.block, metrics)
+        return failed(budget, bound, f"block {failure.block}: {failure.reason}", failure.block,
+                      metrics)
     metrics.update(run.stats)
     metrics["actions_raw"] = float(run.raw)
-    return finish_plan(scene, config, ucfg, run.actions, PLANNER_NAME, t0, bound, metrics,
-                       plan_id)
-
+    return finish_plan(scene, config, run.actions, PLANNER_NAME, budget, bound, metrics,
+                       plan_id, ucfg.to_params())

@@ -52,7 +52,7 @@ def test_bench_rows_carry_the_design_figures():
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--seeds", type=int)
     bench.add_arguments(parser)
-    opts = parser.parse_args(["--n", "4", "--density", "low", "--seeds", "2"])
+    opts = parser.parse_args(["--set", "random", "--n", "4", "--density", "low", "--seeds", "2"])
     rows = bench.run(opts)
     assert len(rows) == 1
     row = rows[0]

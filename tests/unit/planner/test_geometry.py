@@ -100,7 +100,7 @@ def test_obstacles_separate_fixed_from_movable_and_count_them():
     fixed, mask = obstacles.query(queries)
     assert fixed.tolist() == [True, False, False, False]
     assert popcount(mask).tolist() == [0, 2, 0, 0]
-    assert mask_to_ids(int(mask[1]), [3, 7, 9]) == [7, 9]
+    assert mask_to_ids(mask[1], [3, 7, 9]) == [7, 9]
     assert obstacles.fixed_ids_hit(queries[0]) == [3]
 
 
@@ -112,9 +112,20 @@ def test_multi_part_shapes_count_any_part():
     assert not fixed.any() and not mask.any()  # a grasp's own fingers miss its block
     shifted = grasp_finger_corners(GEOM, 0.03, 0.0, 0.0, np.arange(2))
     _, mask = obstacles.query(shifted)
-    assert mask.tolist() == [1, 0]  # grasp 0's left pad now lands on block 1
+    assert mask.tolist() == [[1], [0]]  # grasp 0's left pad now lands on block 1
 
 
 def test_polygons_built_in_bulk_match_shapely_boxes():
     p = poly(block_corners(0.0, 0.0, 0.0, 1.0))
     assert p.equals(shapely.box(-0.5, -0.5, 0.5, 0.5))
+
+
+def test_masks_hold_any_number_of_blocks():
+    # 150 movable blocks in a row: a shape over the last two sets bits 148 and 149 (word 2)
+    n = 150
+    corners = block_corners(np.arange(n) * 0.06, np.zeros(n), np.zeros(n), S)
+    obstacles = Obstacles(list(range(n)), corners, [True] * n, {k: k for k in range(n)})
+    _, mask = obstacles.query(block_corners(148.5 * 0.06, 0.0, 0.0, S)[None, None])
+    assert mask.shape == (1, 3)
+    assert popcount(mask).tolist() == [2]
+    assert mask_to_ids(mask[0], list(range(n))) == [148, 149]

@@ -10,7 +10,7 @@ import math
 from msgs_py import BlockPose, Goal, GridSpec, Scene
 from msgs_py.scene import Workspace
 from nodes.planner.config import PlannerConfig
-from nodes.planner.unlabeled.dispatch import plan_goal
+from nodes.planner.dispatch import plan_goal
 from nodes.planner.validator import validate_plan
 
 BLOCK = 0.0508

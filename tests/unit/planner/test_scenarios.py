@@ -131,3 +131,13 @@ def test_every_returned_plan_passes_the_validator(n, density, seed):
         assert validate_plan(Plan.from_dict(out.plan.to_dict())).ok
     else:
         assert out.error
+
+
+def test_more_blocks_than_a_64_bit_mask_holds_are_planned():
+    from nodes.planner.instances import instance
+
+    scene = instance("random", 70, 0.2, seed=0)  # a 7 x 10 grid
+    out = plan_scene(scene, dataclasses.replace(CONFIG, budget_s=60.0))
+    assert out.ok, out.error
+    assert out.lower_bound <= len(out.plan.actions)
+    assert validate_plan(Plan.from_dict(out.plan.to_dict())).ok

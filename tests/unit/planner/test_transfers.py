@@ -5,7 +5,7 @@ from __future__ import annotations
 from msgs_py import BlockPose, Goal, GoalSlot, PickPlace, Plan, Pose2D, Scene, Workspace
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
-from nodes.planner.transfers import direct_transfers
+from nodes.planner.transfer import direct_transfers
 from nodes.planner.validator import validate_plan
 
 S = 0.0508

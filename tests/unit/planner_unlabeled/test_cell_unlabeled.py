@@ -11,11 +11,12 @@ from msgs_py import BlockPose, Goal, GoalSlot, GridSpec, MessageError, Pose2D, S
 from nodes.common.scenes import random_scene
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
+from nodes.planner.dispatch import goal_kind, plan_goal
 from nodes.planner.planner import plan_scene
 from nodes.planner.unlabeled.baseline import assign_slots, plan_assignment
 from nodes.planner.unlabeled.cell_geometry import CellSpace
+from nodes.planner.unlabeled.cell_transfers import realize
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.dispatch import goal_kind, plan_goal
 from nodes.planner.unlabeled.goal_check import unfilled_slots
 from nodes.planner.unlabeled.planner import plan_unlabeled
 from nodes.planner.unlabeled.retrieval import plan_retrieval
@@ -62,7 +63,7 @@ def test_realised_pick_place_keeps_the_grasp_axis_the_transfer_chose():
     b = sp.add_site(Pose2D(0.8, 0.1, 0.0))
     t = sp.transfer(a, b, frozenset())
     # The block actually stands turned by 90 degrees from the site's yaw: same footprint.
-    actions, end = sp.realize(t, 7, Pose2D(0.6, 0.0, 0.2 + math.pi / 2))
+    actions, end = realize(t, 7, Pose2D(0.6, 0.0, 0.2 + math.pi / 2))
     [act] = actions
     step = t.recipe[0]
     pick_axis = act.from_.theta + act.grasp * math.pi / 2
@@ -207,10 +208,10 @@ def test_random_scenes_of_every_size_plan_and_validate(k, density, seed):
 
 
 def test_a_failed_unlabeled_plan_falls_back_to_the_baseline(monkeypatch):
+    from nodes.planner import dispatch
     from nodes.planner.planner import PlanOutcome
-    from nodes.planner.unlabeled import dispatch
 
-    def fails(scene, config, ucfg, plan_id=None, should_stop=None):
+    def fails(scene, config, ucfg, budget=None, plan_id=None):
         return PlanOutcome(None, 0.01, 4, "no plan: made up")
 
     monkeypatch.setitem(dispatch.UNLABELED, "pebble_graphs", fails)

@@ -25,7 +25,7 @@ def test_scenes_are_the_random_scenes_of_the_other_benchmarks():
 def test_a_tiny_run_reports_every_planner():
     parser = argparse.ArgumentParser()
     unlabeled_bench.add_arguments(parser)
-    opts = parser.parse_args(["--k", "2", "--b", "1"])
+    opts = parser.parse_args(["--set", "random", "--k", "2", "--b", "1", "--density", "high"])
     opts.quick, opts.seeds = False, 2
     rows = unlabeled_bench.run(opts)
     assert [r["planner"] for r in rows] == ["labeled_pirs", "assignment_pirs", "pebble_graphs"]
