@@ -16,15 +16,18 @@ class ExecutorConfig:
                            "interpolates between setpoints", unit="Hz")
     auto_start: bool = param(True, "start executing as soon as a plan arrives")
     travel_height: float = param(
-        0.10, "TCP height for moves above the blocks: a carried block's bottom clears 5 cm "
+        cell.TRAVEL_HEIGHT,
+        "TCP height for moves above the blocks: a carried block's bottom clears 5 cm "
         "blocks by 3.7 cm", unit="m")
     grasp_height: float = param(
-        0.012, "TCP (fingertip) height when closing on a block: pads grip its lower part",
+        cell.GRASP_HEIGHT,
+        "TCP (fingertip) height when closing on a block: pads grip its lower part",
         unit="m")
     place_drop: float = param(
-        0.002, "release a placed block this far above its resting height", unit="m")
+        cell.PLACE_DROP, "release a placed block this far above its resting height", unit="m")
     push_height: float = param(
-        0.010, "fingertip height during a push: low on the face so the block does not tip",
+        cell.PUSH_HEIGHT,
+        "fingertip height during a push: low on the face so the block does not tip",
         unit="m")
     push_backoff: float = param(
         0.006, "after a push, back off this far along -d before lifting", unit="m")
