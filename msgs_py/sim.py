@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from msgs_py.checks import finite_float
+from msgs_py.checks import finite_float, integer
 from msgs_py.errors import MessageError
 
 #: Kinds of event the monitor counts (``nodes/sim/events.py``).
@@ -25,15 +25,7 @@ ROBOT_PARTS = ("arm", "gripper", "finger")
 def _block(where: str, value: Any, optional: bool = False) -> int | None:
     if value is None and optional:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise MessageError(where, value, "a block id is an integer >= 0")
-    return value
-
-
-def _count(where: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise MessageError(where, value, "expected an integer >= 0")
-    return value
+    return integer(where, value, minimum=0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,8 +108,8 @@ class SimEvents:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "events", tuple(self.events))
-        _count("unintended_contacts", self.unintended_contacts)
-        _count("blocks_lost", self.blocks_lost)
+        integer("unintended_contacts", self.unintended_contacts, minimum=0)
+        integer("blocks_lost", self.blocks_lost, minimum=0)
 
     def to_dict(self) -> dict[str, Any]:
         return {"unintended_contacts": self.unintended_contacts, "blocks_lost": self.blocks_lost,

@@ -9,16 +9,12 @@ from densepack_interfaces.action import Rearrange
 from rclpy.action import ActionClient
 
 from msgs_py import interface_codecs as ic
+from nodes.common.harness import wait_for_future
 
 
 def wait_future(future, what: str, timeout: float = 30.0):
-    """The result of an rclpy future that another thread (the harness) spins."""
-    deadline = time.monotonic() + timeout
-    while not future.done():
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"{what}: no answer in {timeout} s")
-        time.sleep(0.01)
-    return future.result()
+    """The result of an rclpy future that the harness spins."""
+    return wait_for_future(future, what, timeout)
 
 
 class Goals:

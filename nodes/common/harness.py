@@ -57,6 +57,21 @@ def allocate_domain_id(lo: int = 1, hi: int = 80) -> int:
     raise RuntimeError(f"every ROS_DOMAIN_ID in [{lo}, {hi}] is held by another process")
 
 
+def wait_for_future(future: Any, what: str, timeout: float) -> Any:
+    """The result of an rclpy future that another thread spins (a service answer, an action's
+    goal response or result).
+
+    Raises:
+        TimeoutError: not done within ``timeout`` seconds (``what`` names it).
+    """
+    deadline = time.monotonic() + timeout
+    while not future.done():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{what} did not answer in {timeout} s")
+        time.sleep(0.01)
+    return future.result()
+
+
 class RosHarness:
     """A private Context + executor thread; nodes added to it spin until ``shutdown``."""
 
@@ -179,12 +194,7 @@ class RosHarness:
         if not client.wait_for_service(timeout_sec=timeout):
             raise TimeoutError(f"service {name} not available in {timeout} s")
         future = client.call_async(request if request is not None else srv_type.Request())
-        deadline = time.monotonic() + timeout
-        while not future.done():
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"service {name} did not answer in {timeout} s")
-            time.sleep(0.01)
-        return future.result()
+        return wait_for_future(future, f"service {name}", timeout)
 
     # --- lifecycle ------------------------------------------------------------------------------
     def shutdown(self) -> None:
