@@ -5,9 +5,10 @@ executor core's: its state, action k of n, replans, the final detection, and the
 cancel asks for (``ExecutorCore.request_stop``). A goal is a goal layout:
 
 * checked when it comes (msgs_py refuses NaN, overlapping slots, duplicate ids, slots outside
-  its workspace; ``goals.check_layout`` unknown ids, more slots than blocks, a workspace out of
-  the arm's reach) and rejected with the reason logged, since an action server cannot put a
-  reason into a rejection;
+  its workspace; ``goals.check_layout`` a workspace out of the arm's reach and, against the
+  latest detection, unknown ids and more slots than blocks) and rejected with the reason
+  logged, since an action server cannot put a reason into a rejection (an executor that has
+  not seen a detection yet, just restarted, leaves the id checks to the planner);
 * rejected, too, while another goal runs or the executor is busy with a plan of its own: goals
   are not preempted (cancel first; a cancel is a safe stop);
 * accepted: the layout goes to the planner on ``/goal_layout`` (latched, as ``densepack-goal``
@@ -110,6 +111,9 @@ class RearrangeServer:
                 check_layout(layout, self._detection, self.node.config.safe_box)
             except MessageError as err:
                 return self._reject(str(err))
+            if self._detection is None:
+                self.log.warning("/rearrange goal accepted before any detection: its block ids "
+                                 "are left to the planner to check")
             self._busy = True
         return GoalResponse.ACCEPT
 
