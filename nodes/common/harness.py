@@ -7,7 +7,7 @@ integration tests of their own can use it directly::
 
     with RosHarness() as ros:
         planner = ros.add(PlannerNode(context=ros.context))
-        plan = ros.wait_for_message("/plan", String, timeout=30)
+        plan = ros.wait_for_message("/plan", PlanMsg, timeout=30, qos=LATCHED)
 
 ``allocate_domain_id`` hands every test session its own ``ROS_DOMAIN_ID`` (an flock on a
 file under the temp directory) so parallel runs on one machine do not hear each other.

@@ -14,7 +14,6 @@ lives in ``ExecutorCore``; this node only converts and forwards.
 from __future__ import annotations
 
 import dataclasses
-import math
 import sys
 import threading
 from collections.abc import Callable
@@ -31,6 +30,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from msgs_py import ExecutorStatus, MessageError
+from msgs_py.checks import finite_float
 from msgs_py.interface_codecs import (
     block_set_from_msg,
     executor_status_to_msg,
@@ -63,9 +63,28 @@ calls:      /camera/trigger, /planner/replan (std_srvs/Trigger)"""
 
 
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
+    """The measured TCP; MessageError names a non-finite field."""
     p, q = msg.pose.position, msg.pose.orientation
+    for name, part in (("position", p), ("orientation", q)):
+        for axis in ("x", "y", "z", "w") if name == "orientation" else ("x", "y", "z"):
+            finite_float(f"pose.{name}.{axis}", getattr(part, axis))
     yaw = yaw_of_matrix(quaternion_to_matrix((q.x, q.y, q.z, q.w)))
     return ToolPose(p.x, p.y, p.z, yaw)
+
+
+def finger_gap_from_msg(msg: JointState) -> float | None:
+    """The pads' gap: the sum of the two finger joints (docs/contracts.md); None for joint
+    states without them (the arm's alone, another publisher's). MessageError names a finger
+    joint without a finite position."""
+    if not all(n in msg.name for n in FINGER_JOINTS):
+        return None
+    gap = 0.0
+    for joint in FINGER_JOINTS:
+        k = msg.name.index(joint)
+        if k >= len(msg.position):
+            raise MessageError(f"position[{k}]", len(msg.position), f"no position for {joint}")
+        gap += finite_float(f"position[{k}]", msg.position[k])
+    return gap
 
 
 class ExecutorNode(Node):
@@ -135,15 +154,11 @@ class ExecutorNode(Node):
                 self.core.on_planner_failed(status.last_error)
 
     def on_joints(self, msg: JointState) -> None:
-        """The pads' gap is the sum of the two finger joints (docs/contracts.md)."""
-        try:
-            gap = sum(msg.position[msg.name.index(n)] for n in FINGER_JOINTS)
-        except (ValueError, IndexError):
-            return  # another publisher's joints, or a partial message: not ours to judge
-        if math.isfinite(gap):
+        gap = self._decoded(msg, finger_gap_from_msg, "/joint_states")
+        if gap is not None:
             stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
             with self.lock:
-                self.core.on_finger_gap(float(gap), stamp if stamp > 0.0 else None)
+                self.core.on_finger_gap(gap, stamp if stamp > 0.0 else None)
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:

@@ -190,9 +190,11 @@ def test_malformed_messages_on_every_subscribed_topic_do_not_kill_the_executor(r
     tcp.publish(nan_pose)
     joints = ros.publisher("/joint_states", JointState, RELIABLE)
     ros.wait_for_subscribers(joints)
-    joints.publish(JointState(name=["left_finger_joint"], position=[]))
+    joints.publish(JointState(name=["left_finger_joint", "right_finger_joint"], position=[0.1]))
     wait_logged(logged, ["malformed /plan: actions[1].type", "malformed /blocks/detected: "
-                         "missing_ids[0]", "malformed /planner/status: state"])
+                         "missing_ids[0]", "malformed /planner/status: state",
+                         "malformed /tcp_pose: pose.orientation.w",
+                         "malformed /joint_states: position[1]"])
     wait_status(ros, "idle", timeout=20)
     answer = ros.call_service("/executor/stop", Trigger)
     assert answer.success
