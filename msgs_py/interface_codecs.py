@@ -28,7 +28,6 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-from builtin_interfaces.msg import Time
 from densepack_interfaces import msg as ifc
 from densepack_interfaces.action import Rearrange
 from densepack_interfaces.srv import PlanScene
@@ -39,8 +38,17 @@ from msgs_py.checks import finite_float
 from msgs_py.detection import BlockSet
 from msgs_py.errors import MessageError
 from msgs_py.poses import BlockPose, Pose2D
+from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
 from msgs_py.scene import SCHEMA_VERSION, Goal, GoalSlot, GridSpec, Scene, Workspace
-from msgs_py.status import EXECUTOR_STATES, PLANNER_STATES, ExecutorStatus, PlannerStatus
+from msgs_py.sim import SIM_EVENT_TYPES, Disturbance, SimEvent, SimEvents
+from msgs_py.status import (
+    EXECUTOR_STATES,
+    GRIPPER_OBJECT_STATES,
+    PLANNER_STATES,
+    ExecutorStatus,
+    GripperStatus,
+    PlannerStatus,
+)
 from msgs_py.tasks import (
     PLAN_ERRORS,
     REARRANGE_OUTCOMES,
@@ -75,6 +83,8 @@ EXECUTOR_STATE_CODES = _constants(ifc.ExecutorStatus, "STATE_", EXECUTOR_STATES)
 PLANNER_STATE_CODES = _constants(ifc.PlannerStatus, "STATE_", PLANNER_STATES)
 PLAN_ERROR_CODES = _constants(PlanScene.Response, "ERROR_", PLAN_ERRORS)
 OUTCOME_CODES = _constants(Rearrange.Result, "OUTCOME_", REARRANGE_OUTCOMES)
+GRIPPER_OBJECT_CODES = _constants(ifc.GripperStatus, "OBJECT_", GRIPPER_OBJECT_STATES)
+SIM_EVENT_CODES = _constants(ifc.SimEvent, "TYPE_", SIM_EVENT_TYPES)
 ACTION_TYPE_CODES = {"pick_place": ifc.PlanAction.PICK_PLACE, "push": ifc.PlanAction.PUSH}
 
 
@@ -171,18 +181,7 @@ def _check_version(where: str, version: int) -> None:
         raise MessageError(where, version, f"only schema v{SCHEMA_VERSION} has a message form")
 
 
-# --- time ---------------------------------------------------------------------------------------
-def stamp_to_msg(stamp_ns: int, where: str = "stamp") -> Time:
-    sec, nanosec = divmod(_int(where, stamp_ns, INT64_MIN, INT64_MAX), 1_000_000_000)
-    if not -(2**31) <= sec <= INT32_MAX:
-        raise MessageError(where, stamp_ns, "outside the range of builtin_interfaces/Time")
-    return Time(sec=sec, nanosec=nanosec)
-
-
-def stamp_from_msg(msg: Time) -> int:
-    return int(msg.sec) * 1_000_000_000 + int(msg.nanosec)
-
-
+# --- frames ---------------------------------------------------------------------------------------
 def _world_frame_from(where: str, frame_id: str) -> None:
     if frame_id not in (WORLD, ""):
         raise MessageError(where, frame_id, f"scenes and goal layouts are in '{WORLD}'")
@@ -215,7 +214,7 @@ def block_pose_from_msg(msg: ifc.BlockPose, where: str = "block") -> BlockPose:
 # --- detections -------------------------------------------------------------------------------
 def block_set_to_msg(block_set: BlockSet) -> ifc.BlockPoseArray:
     msg = ifc.BlockPoseArray()
-    msg.header.stamp = stamp_to_msg(block_set.stamp_ns, "stamp_ns")
+    msg.header.stamp = ns_to_stamp(block_set.stamp_ns, "stamp_ns")
     msg.header.frame_id = _text("frame_id", block_set.frame_id)
     msg.block_size = _float("block_size", block_set.block_size)
     msg.blocks = [block_pose_to_msg(b, f"blocks[{k}]") for k, b in enumerate(block_set.blocks)]
@@ -254,7 +253,7 @@ def block_set_from_msg(msg: ifc.BlockPoseArray) -> BlockSet:
                                "must be >= 0 or UNKNOWN_ERROR")
         reprojection[block.id] = value
     with _fields("", [("missing", "missing_ids")]):
-        return BlockSet(blocks, stamp_from_msg(msg.header.stamp), msg.header.frame_id,
+        return BlockSet(blocks, stamp_to_ns(msg.header.stamp), msg.header.frame_id,
                         _float("block_size", msg.block_size), missing, reprojection)
 
 
@@ -339,7 +338,7 @@ def goal_from_msg(msg: ifc.GoalSpec, where: str = "goal") -> Goal:
 
 
 def _header_to(msg: Any, stamp_ns: int) -> None:
-    msg.header.stamp = stamp_to_msg(stamp_ns)
+    msg.header.stamp = ns_to_stamp(stamp_ns)
     msg.header.frame_id = WORLD
 
 
@@ -560,7 +559,7 @@ def metrics_from_msg(msgs: Sequence[ifc.Metric], where: str = "metrics") -> dict
 def executor_status_to_msg(status: ExecutorStatus, stamp_ns: int = 0) -> ifc.ExecutorStatus:
     _check_version("version", status.version)
     return ifc.ExecutorStatus(
-        stamp=stamp_to_msg(stamp_ns),
+        stamp=ns_to_stamp(stamp_ns),
         state=_code_to("state", EXECUTOR_STATE_CODES, status.state),
         plan_id=_text("plan_id", status.plan_id),
         action_index=_int("action_index", status.action_index, 0, UINT32_MAX),
@@ -588,7 +587,7 @@ def executor_status_from_msg(msg: ifc.ExecutorStatus) -> ExecutorStatus:
 def planner_status_to_msg(status: PlannerStatus, stamp_ns: int = 0) -> ifc.PlannerStatus:
     _check_version("version", status.version)
     return ifc.PlannerStatus(
-        stamp=stamp_to_msg(stamp_ns),
+        stamp=ns_to_stamp(stamp_ns),
         state=_code_to("state", PLANNER_STATE_CODES, status.state),
         plan_id=_text("plan_id", status.plan_id),
         n_actions=_int("n_actions", status.n_actions, 0, UINT32_MAX),
@@ -609,6 +608,68 @@ def planner_status_from_msg(msg: ifc.PlannerStatus) -> PlannerStatus:
         failed_block=_optional_block_from("failed_block", msg.failed_block),
         metrics=metrics_from_msg(msg.metrics),
     )
+
+
+def gripper_status_to_msg(status: GripperStatus) -> ifc.GripperStatus:
+    msg = ifc.GripperStatus(gap=_float("gap", status.gap),
+                            requested_gap=_float("requested_gap", status.requested_gap),
+                            object=_code_to("object", GRIPPER_OBJECT_CODES, status.object))
+    msg.header.stamp = ns_to_stamp(status.stamp_ns, "stamp_ns")
+    return msg
+
+
+def gripper_status_from_msg(msg: ifc.GripperStatus) -> GripperStatus:
+    return GripperStatus(_float("gap", msg.gap), _float("requested_gap", msg.requested_gap),
+                         _code_from("object", GRIPPER_OBJECT_CODES, msg.object),
+                         stamp_to_ns(msg.header.stamp))
+
+
+# --- the simulator's events and disturbances -------------------------------------------------
+def sim_event_to_msg(event: SimEvent, where: str = "event") -> ifc.SimEvent:
+    return ifc.SimEvent(
+        time_s=_float(f"{where}.time_s", event.time_s),
+        type=_code_to(f"{where}.type", SIM_EVENT_CODES, event.type),
+        block=_block_id(f"{where}.block", event.block),
+        other_block=_optional_block_to(f"{where}.other_block", event.other_block),
+        manipulated=_optional_block_to(f"{where}.manipulated", event.manipulated),
+        robot=_text(f"{where}.robot", event.robot),
+        reason=_text(f"{where}.reason", event.reason),
+    )
+
+
+def sim_event_from_msg(msg: ifc.SimEvent, where: str = "event") -> SimEvent:
+    kind = _code_from(f"{where}.type", SIM_EVENT_CODES, msg.type)
+    time_s = _float(f"{where}.time_s", msg.time_s)
+    block = _block_id(f"{where}.block", msg.block)
+    other = _optional_block_from(f"{where}.other_block", msg.other_block)
+    manipulated = _optional_block_from(f"{where}.manipulated", msg.manipulated)
+    with _fields(where):
+        return SimEvent(kind, time_s, block, other, manipulated, msg.robot, msg.reason)
+
+
+def sim_events_to_msg(events: SimEvents) -> ifc.SimEvents:
+    msg = ifc.SimEvents(
+        unintended_contacts=_int("unintended_contacts", events.unintended_contacts, 0,
+                                 UINT32_MAX),
+        blocks_lost=_int("blocks_lost", events.blocks_lost, 0, UINT32_MAX),
+        events=[sim_event_to_msg(e, f"events[{k}]") for k, e in enumerate(events.events)])
+    _header_to(msg, events.stamp_ns)
+    return msg
+
+
+def sim_events_from_msg(msg: ifc.SimEvents) -> SimEvents:
+    events = tuple(sim_event_from_msg(e, f"events[{k}]") for k, e in enumerate(msg.events))
+    return SimEvents(int(msg.unintended_contacts), int(msg.blocks_lost), events,
+                     stamp_to_ns(msg.header.stamp))
+
+
+def disturbance_to_msg(disturbance: Disturbance) -> ifc.Disturbance:
+    return ifc.Disturbance(block=_block_id("block", disturbance.block),
+                           dx=_float("dx", disturbance.dx), dy=_float("dy", disturbance.dy))
+
+
+def disturbance_from_msg(msg: ifc.Disturbance) -> Disturbance:
+    return Disturbance(_block_id("block", msg.block), _float("dx", msg.dx), _float("dy", msg.dy))
 
 
 # --- PlanScene service -------------------------------------------------------------------------
@@ -741,6 +802,10 @@ ENCODERS: dict[type, Callable[[Any], Any]] = {
     RearrangeFeedback: rearrange_feedback_to_msg,
     RearrangeResult: rearrange_result_to_msg,
     BlockError: block_error_to_msg,
+    GripperStatus: gripper_status_to_msg,
+    SimEvent: sim_event_to_msg,
+    SimEvents: sim_events_to_msg,
+    Disturbance: disturbance_to_msg,
 }
 
 #: message type -> decoder.
@@ -763,6 +828,10 @@ DECODERS: dict[type, Callable[[Any], Any]] = {
     Rearrange.Feedback: rearrange_feedback_from_msg,
     Rearrange.Result: rearrange_result_from_msg,
     ifc.BlockError: block_error_from_msg,
+    ifc.GripperStatus: gripper_status_from_msg,
+    ifc.SimEvent: sim_event_from_msg,
+    ifc.SimEvents: sim_events_from_msg,
+    ifc.Disturbance: disturbance_from_msg,
 }
 
 

@@ -1,21 +1,16 @@
-"""Progress reports of the planner and the executor (JSON payloads of std_msgs/String).
+"""Progress reports: the planner's, the executor's and the gripper's.
 
-Both are flat records: a ``state`` from a fixed vocabulary, counters, the last error in
-words and a ``metrics`` dict of figures (seconds, counts) for dashboards and reports.
+The planner's and the executor's are flat records: a ``state`` from a fixed vocabulary,
+counters, the last error in words and a ``metrics`` dict of figures (seconds, counts) for
+dashboards and reports. The gripper's is what a 2F-85 driver reports. The codecs to
+``densepack_interfaces`` are in ``msgs_py.interface_codecs``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
-from msgs_py.checks import (
-    check_keys,
-    finite_float,
-    integer,
-    require_mapping,
-    text,
-)
+from msgs_py.checks import finite_float
 from msgs_py.errors import MessageError
 from msgs_py.scene import SCHEMA_VERSION
 
@@ -31,17 +26,20 @@ EXECUTOR_STATES = (
     "failed",  # gave up; last_error says why
 )
 
+#: The gripper's object detection (the 2F-85's gOBJ), in the order of its codes 0-3.
+GRIPPER_OBJECT_STATES = (
+    "moving",  # fingers moving towards the requested gap, nothing detected
+    "stopped_opening",  # stopped on an object while opening
+    "stopped_closing",  # stopped on an object while closing: something is held
+    "at_position",  # reached the requested gap: no object
+)
+
 PLANNER_STATES = (
     "waiting",  # missing a goal or a detection
     "planning",
     "planned",  # a validated plan was published
     "failed",  # no plan: last_error names the block and the reason
 )
-
-
-def _metrics_from(field: str, raw: Any) -> dict[str, float]:
-    raw = require_mapping(field, raw)
-    return {str(k): finite_float(f"{field}.{k}", v) for k, v in raw.items()}
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,38 +60,6 @@ class ExecutorStatus:
         if self.state not in EXECUTOR_STATES:
             raise MessageError("state", self.state, f"expected one of {list(EXECUTOR_STATES)}")
 
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "version": self.version,
-            "state": self.state,
-            "plan_id": self.plan_id,
-            "action_index": self.action_index,
-            "action_total": self.action_total,
-            "block": self.block,
-            "last_error": self.last_error,
-            "detail": self.detail,
-            "metrics": dict(self.metrics),
-        }
-
-    @classmethod
-    def from_dict(cls, data: Any) -> ExecutorStatus:
-        data = require_mapping("status", data)
-        optional = ("plan_id", "action_index", "action_total", "block", "last_error", "detail",
-                    "metrics")
-        check_keys("", data, ("version", "state"), optional)
-        _check_version(data["version"])
-        block = data.get("block")
-        return cls(
-            state=text("state", data["state"]),
-            plan_id=text("plan_id", data.get("plan_id", "")),
-            action_index=integer("action_index", data.get("action_index", 0), minimum=0),
-            action_total=integer("action_total", data.get("action_total", 0), minimum=0),
-            block=None if block is None else integer("block", block, minimum=0),
-            last_error=text("last_error", data.get("last_error", "")),
-            detail=text("detail", data.get("detail", "")),
-            metrics=_metrics_from("metrics", data.get("metrics", {})),
-        )
-
 
 @dataclass(frozen=True, slots=True)
 class PlannerStatus:
@@ -112,38 +78,24 @@ class PlannerStatus:
         if self.state not in PLANNER_STATES:
             raise MessageError("state", self.state, f"expected one of {list(PLANNER_STATES)}")
 
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "version": self.version,
-            "state": self.state,
-            "plan_id": self.plan_id,
-            "n_actions": self.n_actions,
-            "planning_time_s": self.planning_time_s,
-            "last_error": self.last_error,
-            "failed_block": self.failed_block,
-            "metrics": dict(self.metrics),
-        }
 
-    @classmethod
-    def from_dict(cls, data: Any) -> PlannerStatus:
-        data = require_mapping("status", data)
-        optional = ("plan_id", "n_actions", "planning_time_s", "last_error", "failed_block",
-                    "metrics")
-        check_keys("", data, ("version", "state"), optional)
-        _check_version(data["version"])
-        failed = data.get("failed_block")
-        return cls(
-            state=text("state", data["state"]),
-            plan_id=text("plan_id", data.get("plan_id", "")),
-            n_actions=integer("n_actions", data.get("n_actions", 0), minimum=0),
-            planning_time_s=finite_float("planning_time_s", data.get("planning_time_s", 0.0)),
-            last_error=text("last_error", data.get("last_error", "")),
-            failed_block=None if failed is None else integer("failed_block", failed, minimum=0),
-            metrics=_metrics_from("metrics", data.get("metrics", {})),
-        )
+@dataclass(frozen=True, slots=True)
+class GripperStatus:
+    """What the gripper reports at ``stamp_ns``: measured and requested gap between the pads
+    (m) and the object detection (``GRIPPER_OBJECT_STATES``)."""
 
+    gap: float
+    requested_gap: float
+    object: str
+    stamp_ns: int = 0
 
-def _check_version(value: Any) -> None:
-    version = integer("version", value)
-    if version != SCHEMA_VERSION:
-        raise MessageError("version", version, f"unsupported; expected {SCHEMA_VERSION}")
+    def __post_init__(self) -> None:
+        finite_float("gap", self.gap)
+        finite_float("requested_gap", self.requested_gap)
+        if self.object not in GRIPPER_OBJECT_STATES:
+            raise MessageError("object", self.object,
+                               f"expected one of {list(GRIPPER_OBJECT_STATES)}")
+
+    @property
+    def holds_object(self) -> bool:
+        return self.object == "stopped_closing"

@@ -30,21 +30,26 @@ def spawn_python(code: str, **kwargs) -> subprocess.Popen:
 
 
 PUBLISHER_SNIPPET = """
-import json, time, rclpy
-from std_msgs.msg import String
+import time, rclpy
+{imports}
 from nodes.common.qos import {qos}
 rclpy.init()
 node = rclpy.create_node("test_publisher")
-pub = node.create_publisher(String, "{topic}", {qos})
+pub = node.create_publisher({msg_type}, "{topic}", {qos})
+msg = {message}
 for k in range({count}):
-    pub.publish(String(data={payload}))
+    pub.publish(msg)
     time.sleep({period})
 time.sleep({linger})
 node.destroy_node(); rclpy.shutdown()
 """
 
 
-def spawn_string_publisher(topic: str, payload: str, count: int = 200, period: float = 0.1,
-                           qos: str = "RELIABLE", linger: float = 0.0) -> subprocess.Popen:
+def spawn_publisher(topic: str, imports: str, msg_type: str, message: str, count: int = 200,
+                    period: float = 0.1, qos: str = "RELIABLE",
+                    linger: float = 0.0) -> subprocess.Popen:
+    """Another process publishing ``message`` (a Python expression of type ``msg_type``, whose
+    ``imports`` are given) on ``topic``."""
     return spawn_python(PUBLISHER_SNIPPET.format(
-        topic=topic, payload=payload, count=count, period=period, qos=qos, linger=linger))
+        topic=topic, imports=imports, msg_type=msg_type, message=message, count=count,
+        period=period, qos=qos, linger=linger))

@@ -7,7 +7,7 @@ integration tests of their own can use it directly::
 
     with RosHarness() as ros:
         planner = ros.add(PlannerNode(context=ros.context))
-        plan = ros.wait_for_message("/plan", String, timeout=30)
+        plan = ros.wait_for_message("/plan", PlanMsg, timeout=30, qos=LATCHED)
 
 ``allocate_domain_id`` hands every test session its own ``ROS_DOMAIN_ID`` (an flock on a
 file under the temp directory) so parallel runs on one machine do not hear each other.
@@ -55,6 +55,21 @@ def allocate_domain_id(lo: int = 1, hi: int = 80) -> int:
         _DOMAIN_LOCKS.append(handle)
         return domain
     raise RuntimeError(f"every ROS_DOMAIN_ID in [{lo}, {hi}] is held by another process")
+
+
+def wait_for_future(future: Any, what: str, timeout: float) -> Any:
+    """The result of an rclpy future that another thread spins (a service answer, an action's
+    goal response or result).
+
+    Raises:
+        TimeoutError: not done within ``timeout`` seconds (``what`` names it).
+    """
+    deadline = time.monotonic() + timeout
+    while not future.done():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{what} did not answer in {timeout} s")
+        time.sleep(0.01)
+    return future.result()
 
 
 class RosHarness:
@@ -179,12 +194,7 @@ class RosHarness:
         if not client.wait_for_service(timeout_sec=timeout):
             raise TimeoutError(f"service {name} not available in {timeout} s")
         future = client.call_async(request if request is not None else srv_type.Request())
-        deadline = time.monotonic() + timeout
-        while not future.done():
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"service {name} did not answer in {timeout} s")
-            time.sleep(0.01)
-        return future.result()
+        return wait_for_future(future, f"service {name}", timeout)
 
     # --- lifecycle ------------------------------------------------------------------------------
     def shutdown(self) -> None:

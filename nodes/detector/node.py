@@ -2,8 +2,9 @@
 
 Subscribes ``/camera/image_raw`` (sensor_msgs/Image, rgb8) and ``/camera/camera_info``
 (sensor_msgs/CameraInfo), pairs them by identical stamp, detects the 36h11 tags and
-publishes one MarkerArray per frame (msgs_py ``BlockSet``: a CUBE per seen block, id = tag
-id, stamp = image stamp, frame ``world``; known blocks not seen as DELETE markers). A bad
+publishes one ``densepack_interfaces/BlockPoseArray`` per frame (msgs_py ``BlockSet``: the seen
+blocks' poses in ``world``, stamp = image stamp, the known blocks not seen in ``missing_ids``)
+and the same as a MarkerArray for viewers on ``/blocks/detected/markers``. A bad
 frame (empty, wrongly encoded, size mismatch, no or bad camera_info) is logged and skipped:
 nothing is published for it, so no old poses ever go out under a new stamp.
 """
@@ -14,6 +15,7 @@ import sys
 import time
 from collections import deque
 
+from densepack_interfaces.msg import BlockPoseArray
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
@@ -24,6 +26,7 @@ from visualization_msgs.msg import MarkerArray
 
 from msgs_py import MessageError
 from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
+from msgs_py.interface_codecs import block_set_to_msg
 from msgs_py.ros_codecs import block_set_to_markers, stamp_to_ns
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
@@ -63,7 +66,8 @@ class DetectorNode(Node):
         self._last_image_wall = 0.0
         self._last_frame_wall = time.monotonic()
         group = MutuallyExclusiveCallbackGroup()
-        self.publisher = self.create_publisher(MarkerArray, "/blocks/detected", RELIABLE)
+        self.publisher = self.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
+        self.markers = self.create_publisher(MarkerArray, "/blocks/detected/markers", RELIABLE)
         camera_qos = camera_subscription_qos(self.config.image_reliability)
         self.create_subscription(Image, "/camera/image_raw", self.on_image, camera_qos,
                                  callback_group=group)
@@ -129,12 +133,14 @@ class DetectorNode(Node):
                                    f"differs from camera_info ({intrinsics.width} x "
                                    f"{intrinsics.height})")
             result = self.detector.process(pixels, intrinsics, stamp_ns, image_msg.encoding)
+            detected = block_set_to_msg(result.blocks)
         except (MessageError, ValueError) as err:
             self.warn("frame", f"frame {stamp_ns} ns skipped: {err}")
             return
         for text in result.warnings:
             self.warn(text.split(":")[0], f"frame {stamp_ns} ns: {text}")
-        self.publisher.publish(block_set_to_markers(result.blocks))
+        self.publisher.publish(detected)
+        self.markers.publish(block_set_to_markers(result.blocks))
         self.frames += 1
         self._last_frame_wall = time.monotonic()
         self.get_logger().debug(
@@ -160,7 +166,8 @@ class DetectorNode(Node):
 
 TOPICS = """subscribes: /camera/image_raw (sensor_msgs/Image rgb8), /camera/camera_info
             (sensor_msgs/CameraInfo), paired by identical stamp
-publishes:  /blocks/detected (visualization_msgs/MarkerArray: CUBE per block, id = tag id)
+publishes:  /blocks/detected (densepack_interfaces/BlockPoseArray: poses in world, missing ids),
+            /blocks/detected/markers (visualization_msgs/MarkerArray: a CUBE per block, for viewers)
 services:   ~/reset (std_srvs/Trigger): forget the blocks seen so far"""
 
 SPEC = NodeSpec(

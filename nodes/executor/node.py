@@ -1,34 +1,41 @@
 """``densepack-executor``: streams a plan to the arm as Cartesian setpoints, closing the loop.
 
-Subscriptions: ``/plan`` (String JSON, latched), ``/blocks/detected`` (MarkerArray),
-``/tcp_pose`` (PoseStamped). Publications: ``/arm/cartesian_setpoint`` (PoseStamped,
-world, gripper down), ``/gripper/command`` (Float64, m), ``/executor/status`` (String JSON,
-latched). Services: ``/executor/start``, ``/executor/stop`` (Trigger). Clients:
-``/camera/trigger`` (a fresh frame with the arm parked), ``/planner/replan``.
-All the behaviour lives in ``ExecutorCore``; this node only converts and forwards.
+Subscriptions: ``/plan`` (Plan, latched), ``/blocks/detected`` (BlockPoseArray),
+``/planner/status`` (PlannerStatus, latched), ``/tcp_pose`` (PoseStamped), ``/joint_states``.
+Publications: ``/arm/cartesian_setpoint`` (PoseStamped, world, gripper down),
+``/gripper/command`` (Float64, m), ``/executor/status`` (ExecutorStatus, latched),
+``/goal_layout`` (GoalLayout, latched: a Rearrange goal's layout). Services:
+``/executor/start``, ``/executor/stop`` (Trigger). Action: ``/rearrange`` (Rearrange,
+``nodes/executor/rearrange.py``). Clients: ``/camera/trigger`` (a fresh frame with the arm
+parked), ``/planner/replan``. Typed messages are ``densepack_interfaces``. All the behaviour
+lives in ``ExecutorCore``; this node only converts and forwards.
 """
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import sys
 import threading
 from collections.abc import Callable
 from typing import Any
 
+from densepack_interfaces.msg import BlockPoseArray
+from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
+from densepack_interfaces.msg import Plan as PlanMsg
+from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
-from visualization_msgs.msg import MarkerArray
 
-from msgs_py import MessageError
-from msgs_py.ros_codecs import (
-    block_set_from_markers,
-    plan_from_string,
-    planner_status_from_string,
-    to_string_msg,
+from msgs_py import ExecutorStatus, MessageError
+from msgs_py.checks import finite_float
+from msgs_py.interface_codecs import (
+    block_set_from_msg,
+    executor_status_to_msg,
+    plan_from_msg,
+    planner_status_from_msg,
 )
 from nodes.common.params import declare_config
 from nodes.common.qos import LATCHED, RELIABLE
@@ -37,23 +44,47 @@ from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, 
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
+from nodes.executor.rearrange import RearrangeServer
 
 FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
 
 TOPICS = """\
-subscribes: /plan (std_msgs/String JSON, latched),
-            /blocks/detected (visualization_msgs/MarkerArray),
+subscribes: /plan (densepack_interfaces/Plan, latched),
+            /blocks/detected (densepack_interfaces/BlockPoseArray),
+            /planner/status (densepack_interfaces/PlannerStatus, latched),
             /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
-            /gripper/command (std_msgs/Float64), /executor/status (std_msgs/String JSON, latched)
+            /gripper/command (std_msgs/Float64),
+            /executor/status (densepack_interfaces/ExecutorStatus, latched),
+            /goal_layout (densepack_interfaces/GoalLayout, latched: a /rearrange goal's layout)
+action:     /rearrange (densepack_interfaces/action/Rearrange)
 services:   /executor/start, /executor/stop (std_srvs/Trigger)
 calls:      /camera/trigger, /planner/replan (std_srvs/Trigger)"""
 
 
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
+    """The measured TCP; MessageError names a non-finite field."""
     p, q = msg.pose.position, msg.pose.orientation
+    for name, part in (("position", p), ("orientation", q)):
+        for axis in ("x", "y", "z", "w") if name == "orientation" else ("x", "y", "z"):
+            finite_float(f"pose.{name}.{axis}", getattr(part, axis))
     yaw = yaw_of_matrix(quaternion_to_matrix((q.x, q.y, q.z, q.w)))
     return ToolPose(p.x, p.y, p.z, yaw)
+
+
+def finger_gap_from_msg(msg: JointState) -> float | None:
+    """The pads' gap: the sum of the two finger joints (docs/contracts.md); None for joint
+    states without them (the arm's alone, another publisher's). MessageError names a finger
+    joint without a finite position."""
+    if not all(n in msg.name for n in FINGER_JOINTS):
+        return None
+    gap = 0.0
+    for joint in FINGER_JOINTS:
+        k = msg.name.index(joint)
+        if k >= len(msg.position):
+            raise MessageError(f"position[{k}]", len(msg.position), f"no position for {joint}")
+        gap += finite_float(f"position[{k}]", msg.position[k])
+    return gap
 
 
 class ExecutorNode(Node):
@@ -64,18 +95,20 @@ class ExecutorNode(Node):
         self.lock = threading.Lock()
         self.setpoint_pub = self.create_publisher(PoseStamped, "/arm/cartesian_setpoint", RELIABLE)
         self.gripper_pub = self.create_publisher(Float64, "/gripper/command", RELIABLE)
-        self.status_pub = self.create_publisher(String, "/executor/status", LATCHED)
-        self.create_subscription(String, "/plan", self.on_plan, LATCHED)
-        self.create_subscription(MarkerArray, "/blocks/detected", self.on_detection, RELIABLE)
+        self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
+        self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
+        self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
         self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
         self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
-        self.create_subscription(String, "/planner/status", self.on_planner_status, LATCHED)
+        self.create_subscription(PlannerStatusMsg, "/planner/status", self.on_planner_status,
+                                 LATCHED)
         self.create_service(Trigger, "/executor/start", self.on_start)
         self.create_service(Trigger, "/executor/stop", self.on_stop)
         self.camera = self.create_client(Trigger, "/camera/trigger")
         self.replanner = self.create_client(Trigger, "/planner/replan")
-        self._last_status: dict | None = None
+        self._last_status: ExecutorStatus | None = None
         self._last_status_time = 0.0
+        self.rearrange = RearrangeServer(self)
         self.create_timer(1.0 / self.config.rate_hz, self.on_tick)
         self.get_logger().info(f"streaming at {self.config.rate_hz:.0f} Hz; waiting for /plan")
 
@@ -90,17 +123,18 @@ class ExecutorNode(Node):
             self.get_logger().warning(f"ignoring a malformed {topic}: {err}")
             return None
 
-    def on_plan(self, msg: String) -> None:
-        plan = self._decoded(msg, plan_from_string, "/plan")
+    def on_plan(self, msg: PlanMsg) -> None:
+        plan = self._decoded(msg, plan_from_msg, "/plan")
         if plan is not None:
             with self.lock:
                 self.core.on_plan(plan)
 
-    def on_detection(self, msg: MarkerArray) -> None:
-        detection = self._decoded(msg, block_set_from_markers, "/blocks/detected")
+    def on_detection(self, msg: BlockPoseArray) -> None:
+        detection = self._decoded(msg, block_set_from_msg, "/blocks/detected")
         if detection is not None:
             with self.lock:
                 self.core.on_detection(detection)
+            self.rearrange.on_detection(detection)
 
     def on_tcp(self, msg: PoseStamped) -> None:
         pose = self._decoded(msg, tool_pose_from_msg, "/tcp_pose", (ValueError,))
@@ -110,22 +144,21 @@ class ExecutorNode(Node):
         with self.lock:
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
 
-    def on_planner_status(self, msg: String) -> None:
-        status = self._decoded(msg, planner_status_from_string, "/planner/status")
-        if status is not None and status.state == "failed":
+    def on_planner_status(self, msg: PlannerStatusMsg) -> None:
+        status = self._decoded(msg, planner_status_from_msg, "/planner/status")
+        if status is None:
+            return
+        self.rearrange.on_planner_status(status)
+        if status.state == "failed":
             with self.lock:
                 self.core.on_planner_failed(status.last_error)
 
     def on_joints(self, msg: JointState) -> None:
-        """The pads' gap is the sum of the two finger joints (docs/contracts.md)."""
-        try:
-            gap = sum(msg.position[msg.name.index(n)] for n in FINGER_JOINTS)
-        except (ValueError, IndexError):
-            return  # another publisher's joints, or a partial message: not ours to judge
-        if math.isfinite(gap):
+        gap = self._decoded(msg, finger_gap_from_msg, "/joint_states")
+        if gap is not None:
             stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
             with self.lock:
-                self.core.on_finger_gap(float(gap), stamp if stamp > 0.0 else None)
+                self.core.on_finger_gap(gap, stamp if stamp > 0.0 else None)
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
@@ -155,7 +188,7 @@ class ExecutorNode(Node):
             self._call(self.camera, "/camera/trigger", self._on_frame_taken)
         if out.request_replan:
             self._call(self.replanner, "/planner/replan")
-        self._publish_status(status, now.nanoseconds * 1e-9)
+        self._publish_status(status, now)
 
     def _setpoint_msg(self, pose: ToolPose, now) -> PoseStamped:
         msg = PoseStamped()
@@ -197,14 +230,24 @@ class ExecutorNode(Node):
         with self.lock:
             self.core.on_frame_taken(stamp_ns)
 
-    def _publish_status(self, status, now_s: float) -> None:
+    def _publish_status(self, status: ExecutorStatus, now) -> None:
         """On every change of state/progress, and once a second with fresh metrics."""
-        summary = status.to_dict()
-        summary.pop("metrics")
+        summary = dataclasses.replace(status, metrics={})
+        now_s = now.nanoseconds * 1e-9
         if summary != self._last_status or now_s - self._last_status_time >= 1.0:
-            self.status_pub.publish(to_string_msg(status))
+            try:
+                msg = executor_status_to_msg(status, now.nanoseconds)
+            except MessageError as err:
+                self.get_logger().error(f"/executor/status not sent: {err}",
+                                        throttle_duration_sec=5.0)
+                return
+            self.status_pub.publish(msg)
             self._last_status = summary
             self._last_status_time = now_s
+
+    def destroy_node(self) -> None:
+        self.rearrange.close()
+        super().destroy_node()
 
 
 SPEC = NodeSpec(

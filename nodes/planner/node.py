@@ -1,9 +1,11 @@
 """``densepack-planner``: plans from the latest detection to the goal layout, on a worker thread.
 
-Subscribes ``/blocks/detected`` (MarkerArray) and ``/goal_layout`` (String); publishes
-``/plan`` (String JSON, latched), ``/plan/markers`` (MarkerArray, latched) and
-``/planner/status`` (String JSON PlannerStatus, latched); serves ``/planner/replan``
-(std_srvs/Trigger). It plans once automatically as soon as it has a goal layout and a detection
+Subscribes ``/blocks/detected`` (BlockPoseArray) and ``/goal_layout`` (GoalLayout, latched);
+publishes ``/plan`` (Plan, latched), ``/plan/markers`` (MarkerArray, latched) and
+``/planner/status`` (PlannerStatus, latched), all ``densepack_interfaces`` but the markers;
+serves ``/planner/replan`` (std_srvs/Trigger) and ``/plan_scene`` (PlanScene: a scene in, a
+validated plan or a refusal naming the block, the reason and the field out; nothing is
+published). It plans once automatically as soon as it has a goal layout and a detection
 that shows every block (a block listed as ``missing`` is occluded: it waits for the next
 detection and says so). A bad goal or detection is reported on the log and in the status.
 Every goal kind is planned (``dispatch.plan_goal``): labeled with pIRS, unlabeled and
@@ -13,19 +15,34 @@ retrieval (a labeled goal naming only some blocks) with rearrangement pebble gra
 from __future__ import annotations
 
 import math
+import re
 import sys
 import threading
 import uuid
+from collections.abc import Callable
+from typing import Any
 
+from densepack_interfaces.msg import BlockPoseArray, GoalLayout
+from densepack_interfaces.msg import Plan as PlanMsg
+from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
+from densepack_interfaces.srv import PlanScene
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
-from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError, PlannerStatus, Scene
+from msgs_py.interface_codecs import (
+    block_set_from_msg,
+    goal_layout_from_msg,
+    plan_reply_to_msg,
+    plan_request_from_msg,
+    plan_to_msg,
+    planner_status_to_msg,
+)
 from msgs_py.poses import yaw_difference
-from msgs_py.ros_codecs import block_set_from_markers, scene_from_string, to_string_msg
-from nodes.common.params import declare_config
+from msgs_py.tasks import PlanReply, PlanRequest
+from nodes.common.params import config_overrides, configs_from_parameters, declare_config
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.planner.cli import PLANNER_PARAMETERS
@@ -70,6 +87,68 @@ def moved_blocks(old: BlockSet, new: BlockSet) -> list[int]:
     return moved
 
 
+def planner_configs(base: tuple[PlannerConfig, UnlabeledConfig], overrides: dict[str, Any]
+                    ) -> tuple[PlannerConfig, UnlabeledConfig]:
+    """``base`` with ``overrides`` (parameter name -> value) applied. Raises MessageError
+    naming the first bad override as ``overrides[k]`` (unknown, mistyped, out of range)."""
+    values = {**config_overrides(base[0]), **config_overrides(base[1], "unlabeled.")}
+    for k, (name, value) in enumerate(overrides.items()):
+        try:
+            configs_from_parameters(PLANNER_PARAMETERS, {**values, name: value}, "override")
+        except ValueError as err:
+            raise MessageError(f"overrides[{k}]", name, str(err)) from None
+        values[name] = value
+    config, unlabeled = configs_from_parameters(PLANNER_PARAMETERS, values, "overrides")
+    return config, unlabeled
+
+
+def _failed_block(field: str, msg: PlanScene.Request) -> int | None:
+    """The block a refused request's field belongs to (``scene.blocks[2].pose.x`` -> the id
+    of that block), if it names one."""
+    blocks = re.match(r"scene\.blocks\[(\d+)\]", field)
+    if blocks and int(blocks.group(1)) < len(msg.scene.blocks):
+        block = msg.scene.blocks[int(blocks.group(1))].id
+        return int(block) if block >= 0 else None
+    slots = re.match(r"scene\.goal\.slots\[(\d+)\]", field)
+    if slots and int(slots.group(1)) < len(msg.scene.goal.slots):
+        block = msg.scene.goal.slots[int(slots.group(1))].block_id
+        return int(block) if block >= 0 else None
+    return None
+
+
+def answer_plan_request(msg: PlanScene.Request,
+                        base: tuple[PlannerConfig, UnlabeledConfig],
+                        should_stop: Callable[[], bool]) -> PlanReply:
+    """A PlanScene request's reply: a validated plan, or a refusal naming the field."""
+    try:
+        request: PlanRequest = plan_request_from_msg(msg)
+    except MessageError as err:
+        kind = "invalid_parameter" if err.field.startswith("overrides") else "invalid_scene"
+        return PlanReply.refused(kind, f"{err.field}: {err.reason}",
+                                 _failed_block(err.field, msg), err.field)
+    try:
+        config, unlabeled = planner_configs(base, request.overrides)
+    except MessageError as err:
+        return PlanReply.refused("invalid_parameter", f"{err.field} ({err.value}): {err.reason}",
+                                 failed_field=err.field)
+    try:
+        check_goal(request.scene)
+        outcome = plan_goal(request.scene, config, unlabeled, uuid.uuid4().hex[:12],
+                            should_stop=should_stop)
+    except MessageError as err:
+        field = f"scene.goal.{err.field}" if err.field in ("yaw_exact", "labeled") else \
+            f"scene.{err.field}"
+        return PlanReply.refused("invalid_scene", f"{field}: {err.reason}",
+                                 _failed_block(field, msg), field)
+    except ValueError as err:
+        return PlanReply.refused("invalid_scene", str(err), failed_field="scene")
+    if not outcome.ok:
+        return PlanReply.refused("no_plan", outcome.error or "no plan found",
+                                 outcome.failed_block)
+    return PlanReply.planned(outcome.plan, f"{len(outcome.plan.actions)} actions in "
+                             f"{outcome.planning_time_s:.2f} s (validated)")
+
+
 class PlannerNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("planner", **kwargs)
@@ -81,21 +160,25 @@ class PlannerNode(Node):
         self._auto_pending = True  # plan once by itself for each new goal layout
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()  # set on shutdown: the worker gives up planning
-        self.plan_pub = self.create_publisher(String, "/plan", LATCHED)
+        self._service_busy = threading.Lock()  # one PlanScene request at a time
+        self.plan_pub = self.create_publisher(PlanMsg, "/plan", LATCHED)
         self.markers_pub = self.create_publisher(MarkerArray, "/plan/markers", LATCHED)
-        self.status_pub = self.create_publisher(String, "/planner/status", LATCHED)
-        self.create_subscription(String, "/goal_layout", self.on_goal, LATCHED)
-        self.create_subscription(MarkerArray, "/blocks/detected", self.on_detection, RELIABLE)
+        self.status_pub = self.create_publisher(PlannerStatusMsg, "/planner/status", LATCHED)
+        self.create_subscription(GoalLayout, "/goal_layout", self.on_goal, LATCHED)
+        self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
         self.create_service(Trigger, "/planner/replan", self.on_replan)
+        # Its own group: planning a scene takes seconds, the topics must not wait for it.
+        self.create_service(PlanScene, "/plan_scene", self.on_plan_scene,
+                            callback_group=MutuallyExclusiveCallbackGroup())
         self.status(PlannerStatus("waiting", last_error="no goal layout and no detection yet"))
 
     # --- callbacks ---------------------------------------------------------------------------
-    def on_goal(self, msg: String) -> None:
+    def on_goal(self, msg: GoalLayout) -> None:
         try:
-            layout = scene_from_string(msg)
+            layout = goal_layout_from_msg(msg)
             check_goal(layout)
         except (MessageError, ValueError) as err:
-            self.get_logger().error(f"refused goal layout: {err}")
+            self.get_logger().error(f"refused /goal_layout: {err}")
             self.status(PlannerStatus("failed", last_error=f"goal layout refused: {err}"))
             return
         with self._lock:
@@ -104,11 +187,11 @@ class PlannerNode(Node):
                                f"({goal_kind(layout)})")
         self.try_plan(auto=True)
 
-    def on_detection(self, msg: MarkerArray) -> None:
+    def on_detection(self, msg: BlockPoseArray) -> None:
         try:
-            detection = block_set_from_markers(msg)
+            detection = block_set_from_msg(msg)
         except (MessageError, ValueError) as err:
-            self.get_logger().warning(f"ignored detection: {err}")
+            self.get_logger().warning(f"ignoring a malformed /blocks/detected: {err}")
             return
         with self._lock:
             self._detection = detection
@@ -118,6 +201,30 @@ class PlannerNode(Node):
                   ) -> Trigger.Response:
         response.success, response.message = self.try_plan(auto=False)
         return response
+
+    def on_plan_scene(self, request: PlanScene.Request, response: PlanScene.Response
+                      ) -> PlanScene.Response:
+        """Plan a scene given in the request (offline, like densepack-plan): nothing is
+        published, the node's goal layout and detection are not touched."""
+        worker = self._worker
+        if (worker is not None and worker.is_alive()) or not self._service_busy.acquire(
+                blocking=False):
+            reply = PlanReply.refused("busy", "the planner is planning; ask again later")
+        else:
+            try:
+                reply = answer_plan_request(request, (self.config, self.unlabeled),
+                                            self._stop.is_set)
+            finally:
+                self._service_busy.release()
+        if reply.success:
+            self.get_logger().info(f"/plan_scene: {reply.message}")
+        else:
+            self.get_logger().warning(f"/plan_scene refused ({reply.error}): {reply.message}")
+        try:
+            return plan_reply_to_msg(reply)
+        except MessageError as err:
+            return plan_reply_to_msg(PlanReply.refused("no_plan", f"the plan cannot be sent: "
+                                                       f"{err}"))
 
     # --- planning ----------------------------------------------------------------------------
     def try_plan(self, auto: bool) -> tuple[bool, str]:
@@ -218,7 +325,14 @@ class PlannerNode(Node):
                                       metrics=outcome.metrics))
             return None
         plan = outcome.plan
-        self.plan_pub.publish(to_string_msg(plan))
+        try:
+            plan_msg = plan_to_msg(plan)
+        except MessageError as err:
+            self.get_logger().error(f"plan {plan_id} cannot be sent: {err}")
+            self.status(PlannerStatus("failed", plan_id=plan_id, last_error=f"plan cannot be "
+                                      f"sent: {err}"))
+            return None
+        self.plan_pub.publish(plan_msg)
         self.markers_pub.publish(plan_markers(plan, scene))
         self.get_logger().info(f"plan {plan_id}: {len(plan.actions)} actions in "
                                f"{outcome.planning_time_s:.2f} s (validated)")
@@ -228,7 +342,7 @@ class PlannerNode(Node):
         return None
 
     def status(self, status: PlannerStatus) -> None:
-        self.status_pub.publish(to_string_msg(status))
+        self.status_pub.publish(planner_status_to_msg(status, self.get_clock().now().nanoseconds))
 
 
 SPEC = NodeSpec(
@@ -236,7 +350,7 @@ SPEC = NodeSpec(
     PlannerNode,
     "Plans pick-and-place and push actions (pIRS over a PRM; rearrangement pebble graphs "
     "for unlabeled and retrieval goals) from /blocks/detected to /goal_layout; publishes "
-    "/plan, /plan/markers, /planner/status; serves /planner/replan.",
+    "/plan, /plan/markers, /planner/status; serves /planner/replan and /plan_scene.",
     configs=PLANNER_PARAMETERS,
 )
 

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 
-from msgs_py import MessageError, parse_text
-from msgs_py.checks import check_keys, finite_float, integer, require_mapping
+from msgs_py import MessageError
+from msgs_py.checks import finite_float
 
 
 def pose_from_msg(msg: PoseStamped) -> tuple[list[float], list[float], str]:
@@ -41,11 +40,3 @@ def joint_state_msg(stamp: Time, names, positions, velocities) -> JointState:
     msg.position = [float(v) for v in positions]
     msg.velocity = [float(v) for v in velocities]
     return msg
-
-
-def parse_disturb(text: str) -> tuple[int, float, float]:
-    """``{"block": id, "dx": m, "dy": m}`` -> (id, dx, dy); MessageError names a bad field."""
-    data: Any = require_mapping("disturb", parse_text(text, "disturb"))
-    check_keys("", data, ("block", "dx", "dy"), ())
-    return (integer("block", data["block"], minimum=0), finite_float("dx", data["dx"]),
-            finite_float("dy", data["dy"]))

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
-import json
 import math
 import sys
 import threading
@@ -26,35 +25,31 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from densepack_interfaces.msg import BlockPoseArray, Disturbance, GripperStatus, SimEvents
+from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image, JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError
+from msgs_py import interface_codecs as ic
 from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
-from msgs_py.ros_codecs import (
-    block_set_to_markers,
-    executor_status_from_string,
-    ns_to_stamp,
-    stamp_to_ns,
-)
+from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp, stamp_to_ns
+from msgs_py.sim import SimEvents as SimEventsRecord
+from msgs_py.status import GRIPPER_OBJECT_STATES
+from msgs_py.status import GripperStatus as GripperStatusRecord
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.layout import load_sim_scene, scene_problems
-from nodes.sim.messages import (
-    joint_state_msg,
-    parse_disturb,
-    pose_from_msg,
-    pose_stamped_msg,
-)
+from nodes.sim.messages import joint_state_msg, pose_from_msg, pose_stamped_msg
 from nodes.sim.pacing import Pacer
 from nodes.sim.world import SimWorld
 
@@ -100,8 +95,11 @@ class SimNode(Node):
         self.pub_clock = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         self.pub_joints = self.create_publisher(JointState, "/joint_states", RELIABLE)
         self.pub_tcp = self.create_publisher(PoseStamped, "/tcp_pose", RELIABLE)
-        self.pub_truth = self.create_publisher(MarkerArray, "/sim/ground_truth", RELIABLE)
-        self.pub_events = self.create_publisher(String, "/sim/events", LATCHED)
+        self.pub_gripper = self.create_publisher(GripperStatus, "/gripper/status", RELIABLE)
+        self.pub_truth = self.create_publisher(BlockPoseArray, "/sim/ground_truth", RELIABLE)
+        self.pub_truth_markers = self.create_publisher(MarkerArray, "/sim/ground_truth/markers",
+                                                       RELIABLE)
+        self.pub_events = self.create_publisher(SimEvents, "/sim/events", LATCHED)
         self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
         self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
@@ -109,9 +107,9 @@ class SimNode(Node):
         self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
                                  callback_group=group)
         # Volatile on purpose: it matches the executor whether it latches its status or not.
-        self.create_subscription(String, "/executor/status", self._on_status, RELIABLE,
-                                 callback_group=group)
-        self.create_subscription(String, "/sim/disturb", self._on_disturb, RELIABLE,
+        self.create_subscription(ExecutorStatusMsg, "/executor/status", self._on_status,
+                                 RELIABLE, callback_group=group)
+        self.create_subscription(Disturbance, "/sim/disturb", self._on_disturb, RELIABLE,
                                  callback_group=group)
         self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
                                  callback_group=group)
@@ -149,24 +147,24 @@ class SimNode(Node):
             return
         self._queue(lambda: self.world.set_gripper(gap))
 
-    def _on_status(self, msg: String) -> None:
+    def _on_status(self, msg: ExecutorStatusMsg) -> None:
         try:
-            status = executor_status_from_string(msg)
+            status = ic.executor_status_from_msg(msg)
         except (MessageError, ValueError) as err:
-            self.get_logger().warning(f"/executor/status ignored: {err}")
+            self.get_logger().warning(f"ignoring a malformed /executor/status: {err}")
             return
         self._queue(lambda: self.world.set_manipulated(status.block))
 
-    def _on_disturb(self, msg: String) -> None:
+    def _on_disturb(self, msg: Disturbance) -> None:
         try:
-            block, dx, dy = parse_disturb(msg.data)
+            nudge = ic.disturbance_from_msg(msg)
         except (MessageError, ValueError) as err:
             self.get_logger().warning(f"/sim/disturb refused: {err}")
             return
 
         def apply() -> None:
             try:
-                self.world.disturb(block, dx, dy)
+                self.world.disturb(nudge.block, nudge.dx, nudge.dy)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/disturb refused: {err}")
         self._queue(apply)
@@ -260,14 +258,26 @@ class SimNode(Node):
         self.pub_joints.publish(joint_state_msg(stamp, names, q, v))
         position, quat = self.world.tcp_pose()
         self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat))
+        gap, requested, code = self.world.gripper_status()
+        self.pub_gripper.publish(ic.gripper_status_to_msg(GripperStatusRecord(
+            gap, requested, GRIPPER_OBJECT_STATES[code], self.world.time_ns)))
 
     def _publish_truth(self) -> None:
         truth = BlockSet(tuple(self.world.block_poses()), self.world.time_ns, "world",
                          self.scene.block_size)
-        self.pub_truth.publish(block_set_to_markers(truth))
+        self.pub_truth.publish(ic.block_set_to_msg(truth))
+        self.pub_truth_markers.publish(block_set_to_markers(truth))
 
     def _publish_events(self) -> None:
-        self.pub_events.publish(String(data=json.dumps(self.world.monitor.summary())))
+        summary = self.world.monitor.summary()
+        try:
+            events = SimEventsRecord.from_summary(summary, self.world.time_ns)
+        except MessageError as err:  # an event kind the message layer does not know (yet)
+            self.get_logger().error(f"/sim/events: {err}; publishing the counts only",
+                                    throttle_duration_sec=10.0)
+            events = SimEventsRecord(summary["unintended_contacts"], summary["blocks_lost"],
+                                     stamp_ns=self.world.time_ns)
+        self.pub_events.publish(ic.sim_events_to_msg(events))
 
     def _publish_camera(self) -> int:
         stamp_ns = self.world.time_ns
@@ -293,10 +303,13 @@ def _period_steps(physics_hz: float, rate_hz: float) -> int:
 
 TOPICS = """
 subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world), /gripper/command
-  (std_msgs/Float64, gap m), /executor/status (std_msgs/String JSON), /sim/disturb (String JSON),
-  /sim/camera_blackout (std_msgs/Float64, s: drop camera frames, fault injection)
-publishes:  /clock, /joint_states, /tcp_pose, /camera/image_raw (rgb8), /camera/camera_info,
-  /sim/ground_truth (MarkerArray), /sim/events (String JSON)
+  (std_msgs/Float64, gap m), /executor/status (densepack_interfaces/ExecutorStatus),
+  /sim/disturb (densepack_interfaces/Disturbance), /sim/camera_blackout (std_msgs/Float64, s:
+  drop camera frames, fault injection)
+publishes:  /clock, /joint_states, /tcp_pose, /gripper/status (densepack_interfaces/
+  GripperStatus), /camera/image_raw (rgb8), /camera/camera_info, /sim/ground_truth
+  (densepack_interfaces/BlockPoseArray; MarkerArray on /sim/ground_truth/markers),
+  /sim/events (densepack_interfaces/SimEvents, latched)
 services:   /sim/reset, /camera/trigger (std_srvs/Trigger)
 """
 

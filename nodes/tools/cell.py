@@ -64,21 +64,23 @@ def _ros_value(value: Any) -> str:
     return yaml.safe_dump(value, default_flow_style=True).strip().removesuffix("...").strip()
 
 
-def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any] | None = None):
+def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any] | None = None,
+              without: Sequence[str] = (), node_params: dict[str, dict[str, Any]] | None = None):
     """Read a cell file; returns (launches to start, names that are not implemented).
 
-    Parameter precedence, lowest first: the file's shared ``parameters``, a node's own
-    ``parameters``, then ``extra_params`` (the command line's, e.g. ``--scene``).
+    ``only``: start just these nodes; ``without``: leave these out. Parameter precedence,
+    lowest first: the file's shared ``parameters``, a node's own ``parameters``, then
+    ``extra_params`` (the command line's, e.g. ``--scene``), then ``node_params[name]``.
     """
     data = yaml.safe_load(path.read_text()) or {}
     nodes = data.get("nodes") or {}
     shared = dict(data.get("parameters") or {})
-    unknown = [n for n in (*nodes, *only) if n not in NODE_MODULES]
+    unknown = [n for n in (*nodes, *only, *without) if n not in NODE_MODULES]
     if unknown:
         raise SystemExit(f"densepack-cell: unknown node(s) {unknown}; known: {list(NODE_MODULES)}")
     launches, missing = [], []
     for name, spec in nodes.items():
-        if only and name not in only:
+        if (only and name not in only) or name in without:
             continue
         module = NODE_MODULES[name]
         if importlib.util.find_spec(module.rsplit(".", 1)[0]) is None or (
@@ -91,6 +93,7 @@ def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any]
         params = dict(shared)
         params.update(spec.get("parameters") or {})
         params.update(extra_params or {})
+        params.update((node_params or {}).get(name, {}))
         launches.append(NodeLaunch(name, module, files, params))
     return launches, missing
 
@@ -209,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("cell", nargs="?", default="cell.yaml", help="cell file (config/cell.yaml)")
     parser.add_argument("--in-process", action="store_true", help="one process, one executor")
     parser.add_argument("--nodes", default="", help="comma-separated subset to start")
+    parser.add_argument("--without", default="",
+                        help="comma-separated nodes to leave out (e.g. goal, to send goals "
+                        "on the /rearrange action instead)")
     parser.add_argument("--scene", help="scene file for the sim and the goal publisher")
     parser.add_argument("--list", action="store_true", help="print the node set and exit")
     return parser
@@ -221,7 +227,8 @@ def main(args: Sequence[str] | None = None) -> int:
     opts = build_parser().parse_args(user_args)
     extra_params = {"scene_file": str(Path(opts.scene).resolve())} if opts.scene else {}
     only = [n for n in opts.nodes.split(",") if n]
-    launches, missing = load_cell(config_path(opts.cell), only, extra_params)
+    without = [n for n in opts.without.split(",") if n]
+    launches, missing = load_cell(config_path(opts.cell), only, extra_params, without)
     if missing:
         print(f"[cell] not implemented yet, not started: {', '.join(missing)}", flush=True)
     if opts.list or not launches:

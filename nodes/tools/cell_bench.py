@@ -2,15 +2,17 @@
 
 ``densepack-bench cell --scenes 10 [--blocks 9] [--fault NAME ...]`` runs sim, detector,
 planner and executor as separate processes on each scene (the sim's seeded random scenes
-scattered in a workspace sized for ``--density``, goal: a dense grid with 3 mm gaps) and
-reports, per (blocks, fault): success (every block within 3 mm / 2 deg of its goal by
-ground truth, none lost, executor done), final errors, actions executed vs planned,
-corrections (replans), unintended contacts, lost blocks, simulated and wall time.
+scattered in a workspace sized for ``--density``, goal: a dense grid with 3 mm gaps, sent as
+a ``/rearrange`` goal as ``densepack-run`` sends it) and reports, per (blocks, fault):
+success (every block within 3 mm / 2 deg of its goal by ground truth, none lost, goal
+succeeded), final errors, actions executed vs planned, corrections (replans), unintended
+contacts, lost blocks, simulated and wall time.
 
 Faults, injected once per scene: ``executor_restart`` / ``planner_restart`` (SIGKILL the
-process when action 2 is running, start it again 2 s later), ``nudge`` (a hand pushes an
-already placed block about 1 cm between two actions), ``camera_drop`` (camera frames
-dropped for 8 simulated seconds while the executor is observing).
+process when action 2 is running, start it again 2 s later; a restarted executor has lost
+the goal, which the client sends again once its feedback has gone silent), ``nudge`` (a
+hand pushes an already placed block about 1 cm between two actions), ``camera_drop``
+(camera frames dropped for 8 simulated seconds while the executor is observing).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from msgs_py import save_plan, save_scene
 from nodes.tools.cell_run import (
     CellRun,
     RunMonitor,
+    check_goal,
     private_domain,
     run_metrics,
     stop_cells_on_sigterm,
@@ -61,7 +64,8 @@ class FaultInjector:
     """Injects one fault into a running cell when the executor's progress calls for it."""
 
     def __init__(self, name: str, cell: CellRun, monitor: RunMonitor) -> None:
-        from std_msgs.msg import Float64, String
+        from densepack_interfaces.msg import Disturbance
+        from std_msgs.msg import Float64
 
         from nodes.common.qos import RELIABLE
 
@@ -71,9 +75,9 @@ class FaultInjector:
         self.done = name == "none"
         self.note = ""
         self._restart_at: float | None = None
-        self._disturb = monitor.node.create_publisher(String, "/sim/disturb", RELIABLE)
+        self._disturb = monitor.node.create_publisher(Disturbance, "/sim/disturb", RELIABLE)
         self._blackout = monitor.node.create_publisher(Float64, "/sim/camera_blackout", RELIABLE)
-        self._string, self._float = String, Float64
+        self._float = Float64
 
     def __call__(self, monitor: RunMonitor, wall: float) -> None:
         if self._restart_at is not None and wall >= self._restart_at:
@@ -83,7 +87,7 @@ class FaultInjector:
             self.note += f"; {node} restarted at {wall:.0f} s"
         if self.done:
             return
-        status = monitor.executor_status
+        status = monitor.feedback  # the goal's progress
         if status is None:
             return
         if self.name in ("executor_restart", "planner_restart") and (
@@ -95,9 +99,11 @@ class FaultInjector:
             self.note = f"{node} killed during action {status.action_index}"
         elif self.name == "nudge" and (
                 status.state == "observing" and status.action_index >= 2 and monitor.plans):
+            from msgs_py.interface_codecs import disturbance_to_msg
+            from msgs_py.sim import Disturbance
+
             block = monitor.plans[0].actions[0].block
-            self._disturb.publish(self._string(
-                data=json.dumps({"block": block, "dx": 0.008, "dy": 0.006})))
+            self._disturb.publish(disturbance_to_msg(Disturbance(block, 0.008, 0.006)))
             self.done = True
             self.note = f"block {block} nudged by (8, 6) mm after action {status.action_index}"
         elif self.name == "camera_drop" and (
@@ -115,6 +121,7 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
     from nodes.sim.layout import random_sim_scene
 
     scene = random_sim_scene(blocks, density, seed)
+    layout = check_goal(scene)
     scene_file = save_scene(scene, workdir / f"scene_{blocks}_{seed}.yaml")
     private_domain()
     context = Context()
@@ -127,7 +134,7 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
             injector = FaultInjector(fault, cell, monitor)
             cell.start()
             try:
-                result = run_cell(cell, monitor, timeout, injector)
+                result = run_cell(cell, monitor, layout, timeout, injector)
             finally:
                 cell.stop()
         if injector.note:

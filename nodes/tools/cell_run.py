@@ -1,14 +1,16 @@
-"""One run of the whole cell, driven from outside: start the nodes, watch, inject faults.
+"""One run of the whole cell, driven from outside: start the nodes, send the goal, watch,
+inject faults.
 
 ``CellRun`` starts every node of the cell file as its own process (so a fault can kill and
-restart one), collects what a report needs from the cell's topics in ``RunMonitor``, and
-``run()`` loops until the executor reports ``done`` or ``failed`` or time runs out, calling
-``on_progress`` hooks (the run command prints progress, the cell benchmark injects faults).
+restart one) but the goal node: the goal goes to the executor's ``/rearrange`` action
+(``GoalSender``). ``RunMonitor`` collects what a report needs from the cell's topics and the
+goal's feedback and result, and ``run()`` loops until the goal ends, a node crashes or time
+runs out, calling ``on_progress`` hooks (the run command prints progress, the cell benchmark
+injects faults).
 """
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import signal
@@ -26,24 +28,42 @@ from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
 from nodes.tools.cell import NodeLaunch, load_cell
 
-FINAL_STATES = ("done", "failed")
+#: How the run tools change the cell file's node set: no goal node (the goal is a
+#: ``/rearrange`` goal), and an executor that starts a plan only for a goal, so one restarted
+#: mid-run waits for its client to send the goal again instead of resuming on its own.
+ACTION_CELL_WITHOUT = ("goal",)
+ACTION_CELL_PARAMS = {"executor": {"auto_start": False}}
+
+#: A goal whose feedback (sent at least once a second) has been silent this long has lost its
+#: server (the executor died): the goal is sent again (s).
+GOAL_SILENCE_S = 10.0
+#: A goal request unanswered this long is sent again (s).
+GOAL_ANSWER_S = 10.0
+#: A goal rejected when first sent is sent again after this long, this many times in all: the
+#: client checked it already, so a rejection is the cell not being ready (the executor has not
+#: yet taken the detection the client saw) until it happens again and again (s).
+REJECTED_RETRY_S = 2.0
+SENDS_WHEN_REJECTED = 3
+#: After a cancel, wait this long for the goal's result (the arm lifts and parks) (s).
+CANCEL_WAIT_S = 60.0
+#: Result outcome -> the run's outcome (the names of the exit codes and reports).
+OUTCOMES = {"succeeded": "done", "failed": "failed", "canceled": "canceled",
+            "preempted": "failed"}
 
 
 class RunMonitor:
-    """The latest of everything a run report needs, from the cell's topics."""
+    """The latest of everything a run report needs, from the cell's topics and the goal."""
 
     def __init__(self, context: Any) -> None:
+        from densepack_interfaces.action import Rearrange
+        from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus, SimEvents
+        from densepack_interfaces.msg import Plan as PlanMsg
+        from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
+        from rclpy.action import ActionClient
         from rclpy.node import Node
         from sensor_msgs.msg import Image
-        from std_msgs.msg import String
-        from visualization_msgs.msg import MarkerArray
 
-        from msgs_py.ros_codecs import (
-            block_set_from_markers,
-            executor_status_from_string,
-            plan_from_string,
-            planner_status_from_string,
-        )
+        from msgs_py import interface_codecs as ic
         from nodes.common.qos import LATCHED, RELIABLE, SENSOR
 
         self.node = Node("densepack_run", context=context)
@@ -51,23 +71,31 @@ class RunMonitor:
         self.executor_status: Any = None
         self.planner_status: Any = None
         self.plans: list[Plan] = []
-        self.events: dict[str, Any] = {}
+        self.events: Any = None  # msgs_py.sim.SimEvents
         self.ground_truth: BlockSet | None = None
+        self.detection: BlockSet | None = None
+        self.feedback: Any = None  # msgs_py.tasks.RearrangeFeedback of the goal
+        self.result: Any = None  # msgs_py.tasks.RearrangeResult of the goal
         self.first_image: Any = None
         self.last_image: Any = None
         self.sim_time = 0.0
         n = self.node
-        n.create_subscription(String, "/executor/status",
-                              self._keep("executor_status", executor_status_from_string), LATCHED)
-        n.create_subscription(String, "/planner/status",
-                              self._keep("planner_status", planner_status_from_string), LATCHED)
-        n.create_subscription(String, "/plan", self._keep("plans", plan_from_string), LATCHED)
-        n.create_subscription(MarkerArray, "/sim/ground_truth",
-                              self._keep("ground_truth", block_set_from_markers), RELIABLE)
-        n.create_subscription(String, "/sim/events", self._keep("events", _json), RELIABLE)
+        n.create_subscription(ExecutorStatus, "/executor/status",
+                              self._keep("executor_status", ic.executor_status_from_msg),
+                              LATCHED)
+        n.create_subscription(PlannerStatusMsg, "/planner/status",
+                              self._keep("planner_status", ic.planner_status_from_msg), LATCHED)
+        n.create_subscription(PlanMsg, "/plan", self._keep("plans", ic.plan_from_msg), LATCHED)
+        n.create_subscription(BlockPoseArray, "/sim/ground_truth",
+                              self._keep("ground_truth", ic.block_set_from_msg), RELIABLE)
+        n.create_subscription(BlockPoseArray, "/blocks/detected",
+                              self._keep("detection", ic.block_set_from_msg), RELIABLE)
+        n.create_subscription(SimEvents, "/sim/events",
+                              self._keep("events", ic.sim_events_from_msg), LATCHED)
         n.create_subscription(Image, "/camera/image_raw", self._on_image, SENSOR)
         # Simulated time comes from the ground truth's stamps (10 Hz), not /clock: a /clock
         # subscription costs a Python callback per message.
+        self.rearrange = ActionClient(n, Rearrange, "/rearrange")
 
     def _keep(self, attr: str, decode: Callable[[Any], Any]) -> Callable[[Any], None]:
         from msgs_py import MessageError
@@ -95,31 +123,106 @@ class RunMonitor:
             self.last_image = msg
 
 
+class GoalSender:
+    """Sends a goal layout to ``/rearrange`` once the cell sees its blocks, follows its
+    feedback into the monitor, and sends it again when its server went silent (an executor
+    killed and restarted: the new one does not know the goal). ``outcome`` is set when the
+    goal ends: a result outcome, or ``rejected``."""
 
-def _json(msg: Any) -> dict[str, Any]:
-    try:
-        data = json.loads(msg.data)
-    except json.JSONDecodeError as err:
-        raise ValueError(str(err)) from None
-    if not isinstance(data, dict):
-        raise ValueError("not an object")
-    return data
+    def __init__(self, monitor: RunMonitor, layout: Scene) -> None:
+        from msgs_py.interface_codecs import rearrange_goal_to_msg
+
+        self.monitor = monitor
+        self.goal = rearrange_goal_to_msg(layout)
+        self.handle: Any = None  # the goal being followed
+        self._sending: Any = None  # a goal request not answered yet
+        self._sent_at = 0.0
+        self._heard_at = 0.0
+        self._result: Any = None
+        self._rejected = 0
+        self.outcome = ""
+        self.resent = 0
+
+    def step(self, now: float) -> None:
+        if self.outcome:
+            return
+        if self._sending is not None:
+            self._answer(now)
+        elif self.handle is None:
+            ready = self.monitor.rearrange.server_is_ready() and self.monitor.detection is not None
+            if ready and now - self._sent_at >= REJECTED_RETRY_S * bool(self._rejected):
+                self._send(now)
+        elif self._result.done():
+            self._finish(self._result.result())
+        elif now - self._heard_at > GOAL_SILENCE_S:
+            self.resent += 1
+            self._send(now)
+
+    def _send(self, now: float) -> None:
+        self._sending = self.monitor.rearrange.send_goal_async(
+            self.goal, feedback_callback=self._on_feedback)
+        self._sent_at = now
+
+    def _answer(self, now: float) -> None:
+        if not self._sending.done():
+            if now - self._sent_at > GOAL_ANSWER_S:
+                self._sending = None  # lost on the way (no server yet): try again later
+                self._heard_at = now
+            return
+        handle, self._sending = self._sending.result(), None
+        self._heard_at = now
+        if handle.accepted:
+            self.handle, self._result = handle, handle.get_result_async()
+        elif self.handle is None:
+            self._rejected += 1
+            self._sent_at = now
+            if self._rejected >= SENDS_WHEN_REJECTED:
+                self.outcome = "rejected"
+        # else: a resend refused while the old goal still runs: keep following that one
+
+    def _on_feedback(self, message: Any) -> None:
+        from msgs_py.interface_codecs import rearrange_feedback_from_msg
+
+        self._heard_at = time.monotonic()
+        with self.monitor.lock:
+            self.monitor.feedback = rearrange_feedback_from_msg(message.feedback)
+
+    def _finish(self, answer: Any) -> None:
+        from msgs_py.interface_codecs import rearrange_result_from_msg
+
+        result = rearrange_result_from_msg(answer.result)
+        with self.monitor.lock:
+            self.monitor.result = result
+        self.outcome = result.outcome
+
+    def cancel(self, spin: Callable[[], None], wait_s: float = CANCEL_WAIT_S) -> None:
+        """Cancel the goal (a safe stop) and wait for its result, spinning with ``spin``."""
+        if self.handle is None or self.outcome:
+            return
+        self.handle.cancel_goal_async()
+        deadline = time.monotonic() + wait_s
+        while not self._result.done() and time.monotonic() < deadline:
+            spin()
+        if self._result.done():
+            self._finish(self._result.result())
 
 
 @dataclass
 class RunResult:
-    outcome: str  # done | failed | timeout | crashed
+    outcome: str  # done | failed | canceled | rejected | timeout | crashed
     wall_time_s: float
     notes: list[str] = field(default_factory=list)
 
 
 class CellRun:
-    """The cell's nodes as separate processes, logging to one file."""
+    """The cell's nodes as separate processes, logging to one file (the goal node left out:
+    the run sends its goal on the action)."""
 
     def __init__(self, scene_file: Path, log: IO[str], cell_file: str = "cell.yaml",
                  extra_ros_args: tuple[str, ...] = ()) -> None:
         launches, missing = load_cell(config_path(cell_file), (),
-                                      {"scene_file": str(scene_file)})
+                                      {"scene_file": str(scene_file)},
+                                      ACTION_CELL_WITHOUT, ACTION_CELL_PARAMS)
         if missing:
             raise RuntimeError(f"the cell is incomplete: {', '.join(missing)} not implemented")
         self.launches: dict[str, NodeLaunch] = {launch.name: launch for launch in launches}
@@ -176,6 +279,31 @@ class CellRun:
             pump.join(timeout=2.0)
 
 
+def check_goal(scene: Scene, cell_file: str = "cell.yaml") -> Scene:
+    """The goal layout of ``scene``, checked the way the executor checks a Rearrange goal (its
+    blocks standing in for the first detection; its parameters from the cell file), so a goal
+    the cell would reject is refused here with the reason.
+
+    Raises:
+        MessageError: the scene has no goal, or the cell cannot carry it out (field named).
+    """
+    from nodes.common.params import configs_from_parameters, read_params_file
+    from nodes.executor.config import ExecutorConfig
+    from nodes.executor.goals import check_layout
+    from nodes.tools.goal import goal_layout
+
+    (executor,), _ = load_cell(config_path(cell_file), ("executor",), {},
+                               node_params=ACTION_CELL_PARAMS)
+    values: dict[str, Any] = {}
+    for path in executor.params_files:
+        values.update(read_params_file(path, "executor"))
+    values.update(executor.parameters)
+    (config,) = configs_from_parameters((("", ExecutorConfig),), values, cell_file)
+    layout = goal_layout(scene)
+    check_layout(layout, BlockSet(scene.blocks, block_size=scene.block_size), config.safe_box)
+    return layout
+
+
 #: Topics only a running cell publishes: seen on the domain, another cell is there.
 CELL_TOPICS = ("/sim/ground_truth", "/executor/status", "/plan")
 
@@ -216,14 +344,17 @@ def stop_cells_on_sigterm() -> None:
 def run(
     cell: CellRun,
     monitor: RunMonitor,
+    layout: Scene,
     timeout_s: float,
     on_progress: Callable[[RunMonitor, float], None] = lambda m, t: None,
 ) -> RunResult:
-    """Spin the monitor until the executor finishes, a node crashes or time runs out."""
+    """Send ``layout`` as a Rearrange goal and spin the monitor until the goal ends, a node
+    crashes or time runs out (the goal is then canceled: a safe stop)."""
     from rclpy.executors import SingleThreadedExecutor
 
     executor = SingleThreadedExecutor(context=monitor.node.context)
     executor.add_node(monitor.node)
+    sender = GoalSender(monitor, layout)
     wall0 = time.monotonic()
     outcome = "timeout"
     notes: list[str] = []
@@ -235,14 +366,22 @@ def run(
                 notes.append(f"node(s) crashed: {crashed}")
                 outcome = "crashed"
                 break
+            sender.step(time.monotonic())
             on_progress(monitor, time.monotonic() - wall0)
-            status = monitor.executor_status
-            if status is not None and status.state in FINAL_STATES:
-                outcome = status.state
+            if sender.outcome:
+                outcome = OUTCOMES.get(sender.outcome, sender.outcome)
                 settle = time.monotonic() + 2.0
                 while time.monotonic() < settle:  # last ground truth and events
                     executor.spin_once(timeout_sec=0.1)
                 break
+        else:
+            notes.append(f"no result within {timeout_s:.0f} s; goal canceled")
+            sender.cancel(lambda: executor.spin_once(timeout_sec=0.1))
+        if sender.outcome == "rejected":
+            notes.append("the executor rejected the goal (its reason is in the log)")
+        if sender.resent:
+            notes.append(f"goal sent again {sender.resent} time(s) after its feedback went "
+                         "silent")
     finally:
         executor.remove_node(monitor.node)
         executor.shutdown()
@@ -264,36 +403,43 @@ def final_errors(truth: BlockSet | None, scene: Scene) -> list[dict[str, Any]]:
 
 
 def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[str, Any]:
+    """The run report's figures: the goal's result (or, without one, the executor's last
+    status), the ground truth's final errors and the sim's events."""
     with monitor.lock:
-        status, plans = monitor.executor_status, list(monitor.plans)
-        truth, events = monitor.ground_truth, dict(monitor.events)
+        status, feedback, final = monitor.executor_status, monitor.feedback, monitor.result
+        plans, truth, events = list(monitor.plans), monitor.ground_truth, monitor.events
     errors = final_errors(truth, scene)
     pos = [e["pos_err_m"] for e in errors]
     yaw = [e["yaw_err_deg"] for e in errors]
-    metric = (lambda k: status.metrics.get(k)) if status else (lambda k: None)
+    figures = final.metrics if final is not None else (status.metrics if status else {})
+    last = feedback or status
     return {
         "outcome": result.outcome,
         "notes": result.notes,
-        "executor_state": status.state if status else None,
+        "executor_state": last.state if last else None,
+        "result": final.detail if final is not None else None,
         "last_error": status.last_error if status else None,
         "blocks": len(scene.blocks),
         "actions_planned": len(plans[0].actions) if plans else None,
-        "actions_executed": metric("actions_executed"),
+        "actions_executed": figures.get("actions_executed"),
         "plans": len(plans),
-        "replans": metric("replans"),
+        "replans": figures.get("replans"),
         "planning_time_s": [p.planning_time_s for p in plans],
-        "execution_time_s": metric("execution_time_s"),
+        "execution_time_s": figures.get("execution_time_s"),
         "sim_time_s": monitor.sim_time,
         "wall_time_s": result.wall_time_s,
-        "unintended_contacts": events.get("unintended_contacts"),
-        "blocks_lost": events.get("blocks_lost"),
-        "events": events.get("events", []),
-        "sim_time_by_activity_s": ({k[len("time_"):-2]: v for k, v in status.metrics.items()
-                                    if k.startswith("time_") and k.endswith("_s")}
-                                   if status else {}),
+        "unintended_contacts": events.unintended_contacts if events else None,
+        "blocks_lost": events.blocks_lost if events else None,
+        "events": events.to_dict()["events"] if events else [],
+        "sim_time_by_activity_s": {k[len("time_"):-2]: v for k, v in figures.items()
+                                   if k.startswith("time_") and k.endswith("_s")},
         "final_pos_err_max_m": max(pos) if pos else None,
         "final_pos_err_median_m": sorted(pos)[len(pos) // 2] if pos else None,
         "final_yaw_err_max_deg": max(yaw) if yaw else None,
         "final_yaw_err_median_deg": sorted(yaw)[len(yaw) // 2] if yaw else None,
         "final_errors": errors,
+        "perceived_errors": ([{"block": e.block_id, "found": e.found,
+                               "pos_err_m": e.position_error_m,
+                               "yaw_err_deg": math.degrees(e.yaw_error_rad)}
+                              for e in final.block_errors] if final is not None else []),
     }

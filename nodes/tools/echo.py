@@ -1,16 +1,14 @@
 """``densepack-echo TOPIC``: our ``ros2 topic echo``.
 
-Finds the topic's type on the ROS graph, imports the message class, matches the
-publishers' QoS (so latched topics replay their last message and best-effort camera
-streams are heard) and prints each message as YAML (``--json``: one JSON object per line).
-``std_msgs/String`` payloads that hold JSON (plans, statuses, goal layouts, sim events)
-are decoded and printed as structured data.
+Finds the topic's type on the ROS graph, imports the message class (the cell's own
+``densepack_interfaces`` types as any other), matches the publishers' QoS (so latched topics
+replay their last message and best-effort camera streams are heard) and prints each message
+as YAML (``--json``: one JSON object per line).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
 import sys
@@ -22,8 +20,6 @@ import yaml
 
 from nodes.common.messages import canonical_type_name, import_message_type, message_to_dict
 from nodes.common.runner import split_ros_args
-
-JSON_STRING_TYPE = "std_msgs/msg/String"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -39,15 +35,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--type", dest="msg_type", help="message type if the topic is not up yet")
     parser.add_argument("--full", action="store_true", help="print long arrays in full")
-    parser.add_argument("--raw", action="store_true", help="do not decode JSON String payloads")
     return parser
 
 
-def format_message(msg: Any, type_name: str, as_json: bool, full: bool, raw: bool) -> str:
+def format_message(msg: Any, as_json: bool, full: bool) -> str:
     data = message_to_dict(msg, None if full else 32)
-    if type_name == JSON_STRING_TYPE and not raw:
-        with contextlib.suppress(json.JSONDecodeError, TypeError):
-            data = {"data": json.loads(msg.data)}
     if as_json:
         return json.dumps(data, allow_nan=True)
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=False).rstrip() + "\n---"
@@ -110,7 +102,7 @@ def main(args: Sequence[str] | None = None) -> int:
             if limit and received >= limit:
                 return
             received += 1
-            print(format_message(msg, type_name, opts.json, opts.full, opts.raw), flush=True)
+            print(format_message(msg, opts.json, opts.full), flush=True)
 
         node.create_subscription(msg_class, topic, on_message, subscription_qos(node, topic))
         while not limit or received < limit:

@@ -1,8 +1,9 @@
 """``densepack-goal``: publishes a scene file's goal layout, latched, on ``/goal_layout``.
 
-The user's side of DESIGN §4 (user -> planner): the layout is the scene file without its
-blocks (workspace, block size, goal, labeled), validated by msgs_py before it is sent, so a
-bad file is refused here with a message naming the field, not downstream.
+The user's side of DESIGN §4 (user -> planner), the latched-topic style: the layout is the
+scene file without its blocks (workspace, block size, goal, labeled), validated by msgs_py
+before it is sent, so a bad file is refused here with a message naming the field, not
+downstream. The action style is ``/rearrange`` (``densepack-run`` is its client).
 """
 
 from __future__ import annotations
@@ -10,11 +11,11 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 
+from densepack_interfaces.msg import GoalLayout
 from rclpy.node import Node
-from std_msgs.msg import String
 
 from msgs_py import MessageError, Scene, load_scene
-from msgs_py.ros_codecs import to_string_msg
+from msgs_py.interface_codecs import goal_layout_to_msg
 from nodes.common.params import declare_config, param
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
@@ -37,10 +38,10 @@ class GoalPublisher(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("goal", **kwargs)
         self.config = declare_config(self, GoalConfig)
-        self.publisher = self.create_publisher(String, "/goal_layout", LATCHED)
+        self.publisher = self.create_publisher(GoalLayout, "/goal_layout", LATCHED)
         path = config_path(self.config.scene_file)
         layout = goal_layout(load_scene(path))
-        self.publisher.publish(to_string_msg(layout))
+        self.publisher.publish(goal_layout_to_msg(layout, self.get_clock().now().nanoseconds))
         self.get_logger().info(
             f"published the goal of {path} on /goal_layout ({layout.goal.n_slots} slots, "
             f"labeled={layout.goal.labeled})"
@@ -50,7 +51,8 @@ class GoalPublisher(Node):
 SPEC = NodeSpec(
     "goal",
     GoalPublisher,
-    "Publishes the goal layout of a scene file, latched, on /goal_layout (std_msgs/String).",
+    "Publishes the goal layout of a scene file, latched, on /goal_layout "
+    "(densepack_interfaces/GoalLayout).",
     configs=(("", GoalConfig),),
 )
 

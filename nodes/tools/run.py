@@ -1,12 +1,13 @@
 """``densepack-run``: the main job. Runs the whole cell on a scene and writes a run report.
 
-Starts the cell (sim, detector, planner, executor, goal publisher; one process each),
-prints one line per action with the planner's and executor's figures and a progress bar,
-and when the executor reports ``done`` or ``failed`` (or the time limit passes) stops the
-cell and writes a report folder: ``before.png`` / ``after.png`` (overhead camera),
-``plan.png`` (the first plan drawn), ``plan.json``, ``metrics.json`` (per-block final
-error against the goal from ``/sim/ground_truth``, actions, planning and execution time,
-unintended contacts and lost blocks from ``/sim/events``) and ``cell.log``.
+Checks the scene's goal the way the executor will, starts the cell (sim, detector, planner,
+executor; one process each), sends the goal layout as a ``/rearrange`` goal (the client of
+the executor's action), prints one line per plan and per feedback step with a progress bar,
+and when the goal ends (or the time limit passes: the goal is canceled, a safe stop) stops
+the cell and writes a report folder: ``before.png`` / ``after.png`` (overhead camera),
+``plan.png`` (the first plan drawn), ``plan.json``, ``metrics.json`` (the goal's outcome and
+figures, per-block final error against the goal from ``/sim/ground_truth``, unintended
+contacts and lost blocks from ``/sim/events``) and ``cell.log``.
 """
 
 from __future__ import annotations
@@ -26,13 +27,16 @@ from nodes.tools.cell_run import (
     CellRun,
     RunMonitor,
     another_cell,
+    check_goal,
     run,
     run_metrics,
     stop_cells_on_sigterm,
 )
 
-EXIT_CODES = {"done": 0, "failed": 1, "crashed": 1, "timeout": 2}
+EXIT_CODES = {"done": 0, "failed": 1, "canceled": 1, "crashed": 1, "timeout": 2,
+              "rejected": 4}
 EXIT_ANOTHER_CELL = 3
+EXIT_REFUSED = 4
 
 
 def image_to_png(msg: Any, path: Path) -> bool:
@@ -58,7 +62,7 @@ def draw_plan(plan: Plan, path: Path) -> bool:
 
 
 class Progress:
-    """One line per plan and per executor step, and a tqdm bar over the actions."""
+    """One line per plan and per feedback step of the goal, and a tqdm bar over the actions."""
 
     def __init__(self, quiet: bool) -> None:
         from tqdm import tqdm
@@ -77,7 +81,7 @@ class Progress:
 
     def __call__(self, monitor: RunMonitor, wall: float) -> None:
         with monitor.lock:
-            status, plans = monitor.executor_status, list(monitor.plans)
+            status, plans = monitor.feedback, list(monitor.plans)
         for plan in plans[self.plans_seen:]:
             self.say(f"plan {plan.plan_id}: {len(plan.actions)} actions, planned in "
                      f"{plan.planning_time_s:.2f} s (cost {plan.cost:.1f})")
@@ -114,7 +118,12 @@ def main(args: Sequence[str] | None = None) -> int:
 
     opts = build_parser().parse_args(args)
     scene_file = config_path(opts.scene).resolve()
-    scene = load_scene(scene_file)
+    try:
+        scene = load_scene(scene_file)
+        layout = check_goal(scene)
+    except (OSError, ValueError) as err:  # MessageError: a bad scene or goal, field named
+        print(f"densepack-run: {scene_file.name} refused: {err}", file=sys.stderr, flush=True)
+        return EXIT_REFUSED
     report = opts.report or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     report.mkdir(parents=True, exist_ok=True)
     print(f"densepack-run: {len(scene.blocks)} blocks -> {scene.goal.n_slots} goal slots "
@@ -138,7 +147,7 @@ def main(args: Sequence[str] | None = None) -> int:
             return EXIT_ANOTHER_CELL
         cell.start()
         try:
-            result = run(cell, monitor, opts.timeout, progress)
+            result = run(cell, monitor, layout, opts.timeout, progress)
         finally:
             progress.close()
             cell.stop()

@@ -1,4 +1,5 @@
-"""densepack-detector spun in-process: synthetic frames in, MarkerArrays out, bad input survived."""
+"""densepack-detector spun in-process: synthetic frames in, BlockPoseArrays (and viewer
+MarkerArrays) out, bad input survived."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+from densepack_interfaces.msg import BlockPoseArray
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
@@ -14,7 +16,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from msgs_py import BlockPose
 from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
-from msgs_py.ros_codecs import block_set_from_markers, ns_to_stamp, stamp_to_ns
+from msgs_py.interface_codecs import block_set_from_msg
+from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
 from nodes.common.qos import CAMERA as CAMERA_QOS
 from nodes.detector.node import DetectorNode
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
@@ -65,16 +68,21 @@ class Camera:
         return stamp_ns
 
 
-def detection(ros, camera: Camera, pixels, timeout=15.0) -> MarkerArray:
+def detection(ros, camera: Camera, pixels, timeout=15.0, topic="/blocks/detected",
+              msg_type=BlockPoseArray):
     """Send the frame until a detection with its stamp comes back (sensor QoS may drop)."""
+    def stamp_of(msg) -> int:
+        header = msg.markers[0].header if msg_type is MarkerArray else msg.header
+        return stamp_to_ns(header.stamp)
+
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         stamp = camera.send(pixels)
         try:
             return ros.wait_for_message(
-                "/blocks/detected", MarkerArray, timeout=1.0,
-                predicate=lambda m, s=stamp: bool(m.markers)
-                and stamp_to_ns(m.markers[0].header.stamp) == s)
+                topic, msg_type, timeout=1.0,
+                predicate=lambda m, s=stamp: (msg_type is not MarkerArray or bool(m.markers))
+                and stamp_of(m) == s)
         except TimeoutError:
             continue
     raise TimeoutError("no detection for the frames sent")
@@ -93,7 +101,7 @@ def collect(ros) -> list:
     """Every /blocks/detected message from now on (the subscription lives as long as the
     harness: destroying it while the executor spins would race)."""
     published: list = []
-    ros.probe.create_subscription(MarkerArray, "/blocks/detected", published.append, 10)
+    ros.probe.create_subscription(BlockPoseArray, "/blocks/detected", published.append, 10)
     return published
 
 
@@ -103,10 +111,10 @@ def setup(ros):
     return node, Camera(ros)
 
 
-def test_a_frame_becomes_a_marker_array_with_the_right_ids(ros, setup):
+def test_a_frame_becomes_block_poses_with_the_right_ids(ros, setup):
     _node, camera = setup
     msg = detection(ros, camera, frame())
-    blocks = block_set_from_markers(msg)
+    blocks = block_set_from_msg(msg)
     assert blocks.ids == [b.id for b in BLOCKS] and blocks.frame_id == "world"
     for b in BLOCKS:
         got = blocks.by_id()[b.id]
@@ -115,20 +123,22 @@ def test_a_frame_becomes_a_marker_array_with_the_right_ids(ros, setup):
     assert set(blocks.reprojection_px) == set(blocks.ids)
 
 
-def test_a_hidden_block_is_a_delete_marker(ros, setup):
+def test_a_hidden_block_is_missing_and_a_delete_marker(ros, setup):
     _node, camera = setup
     detection(ros, camera, frame())
     h = BLOCKS[2]
     arm = np.array([[h.x - 0.04, h.y - 0.04, 0.4], [h.x + 0.04, h.y - 0.04, 0.4],
                     [h.x + 0.04, h.y + 0.04, 0.4], [h.x - 0.04, h.y + 0.04, 0.4]])
-    msg = detection(ros, camera, frame(occluders=[arm]))
-    deletes = [m.id for m in msg.markers if m.action == Marker.DELETE]
-    assert deletes == [h.id]
-    assert block_set_from_markers(msg).missing == (h.id,)
+    hidden = frame(occluders=[arm])
+    assert block_set_from_msg(detection(ros, camera, hidden)).missing == (h.id,)
+    markers = detection(ros, camera, hidden, topic="/blocks/detected/markers",
+                        msg_type=MarkerArray)
+    assert [m.id for m in markers.markers if m.action == Marker.DELETE] == [h.id]
+    assert sorted(m.id for m in markers.markers if m.action == Marker.ADD) == sorted(
+        b.id for b in BLOCKS if b.id != h.id)
     reply = ros.call_service("/detector/reset", Trigger)
     assert reply.success
-    msg = detection(ros, camera, frame(occluders=[arm]))
-    assert not [m for m in msg.markers if m.action == Marker.DELETE]
+    assert block_set_from_msg(detection(ros, camera, hidden)).missing == ()
 
 
 def test_duplicate_and_unknown_ids_are_dropped(ros, setup):
@@ -136,7 +146,7 @@ def test_duplicate_and_unknown_ids_are_dropped(ros, setup):
     blocks = [BlockPose(1, 0.62, -0.1, 0.0), BlockPose(1, 0.78, 0.1, 0.3),
               BlockPose(30, 0.7, 0.12, 0.0), BlockPose(2, 0.7, -0.12, 0.5)]
     msg = detection(ros, camera, frame(blocks))
-    assert block_set_from_markers(msg).ids == [2]
+    assert block_set_from_msg(msg).ids == [2]
     wait_for_warning(node, "more than once")
     wait_for_warning(node, "outside allowed_ids")
 
@@ -167,7 +177,7 @@ def test_bad_frames_are_skipped_with_a_warning_and_nothing_stale_is_published(ro
     wait_for_warning(node, "camera_info.k")
     time.sleep(0.3)
     assert published == []  # not one message for a bad frame
-    assert block_set_from_markers(detection(ros, camera, frame())).ids == [0, 1, 2, 3, 4, 5]
+    assert block_set_from_msg(detection(ros, camera, frame())).ids == [0, 1, 2, 3, 4, 5]
 
 
 def test_images_without_matching_camera_info_are_not_processed(ros, setup):
@@ -208,12 +218,12 @@ def test_a_simulation_reset_restarts_the_stamps_without_losing_frames(ros):
     ros.wait_for_subscribers(clock)
     clock.publish(Clock(clock=ns_to_stamp(800_000_000)))
     camera.stamp_ns = 800_000_000
-    first = stamp_to_ns(detection(ros, camera, frame()).markers[0].header.stamp)
+    first = stamp_to_ns(detection(ros, camera, frame()).header.stamp)
     # the sim restarts its time at 0: frames stamped 0.1 s are new frames, not stale ones
     # (a jump back this small is told from a late frame only by /clock)
     clock.publish(Clock(clock=ns_to_stamp(50_000_000)))
     time.sleep(0.2)
     camera.stamp_ns = 0
     msg = detection(ros, camera, frame())
-    assert stamp_to_ns(msg.markers[0].header.stamp) < first
+    assert stamp_to_ns(msg.header.stamp) < first
     wait_for_warning(node, "the clock jumped back")

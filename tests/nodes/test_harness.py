@@ -5,11 +5,12 @@ from __future__ import annotations
 import os
 
 import pytest
+from densepack_interfaces.msg import GoalLayout
 from rclpy.node import Node
 from std_msgs.msg import String
 
 from msgs_py import MessageError, load_scene
-from msgs_py.ros_codecs import scene_from_string
+from msgs_py.interface_codecs import goal_layout_from_msg
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.tools.goal import GoalPublisher
@@ -60,8 +61,8 @@ def test_wait_for_message_times_out(ros):
 
 def test_goal_publisher_latches_the_scene_goal(ros):
     ros.add(GoalPublisher(context=ros.context))
-    msg = ros.wait_for_message("/goal_layout", String, timeout=20, qos=LATCHED)
-    layout = scene_from_string(msg)
+    msg = ros.wait_for_message("/goal_layout", GoalLayout, timeout=20, qos=LATCHED)
+    layout = goal_layout_from_msg(msg)
     scene = load_scene(config_path("scenes/default.yaml"))
     assert layout.blocks == () and layout.goal == scene.goal
     assert layout.workspace == scene.workspace

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import json
-
 import pytest
+from densepack_interfaces.msg import BlockPoseArray, GoalLayout, PlannerStatus
+from densepack_interfaces.msg import Plan as PlanMsg
 from rclpy.parameter import Parameter
-from std_msgs.msg import String
-from visualization_msgs.msg import MarkerArray
 
-from msgs_py import BlockSet, Plan, load_scene
-from msgs_py.ros_codecs import block_set_to_markers, to_string_msg
+from msgs_py import BlockSet, load_scene
+from msgs_py import interface_codecs as ic
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
@@ -23,13 +21,13 @@ pytestmark = pytest.mark.ros
 
 def plan_for(ros, scene, overrides=()):
     ros.add(PlannerNode(context=ros.context, parameter_overrides=list(overrides)))
-    goal_pub = ros.publisher("/goal_layout", String, LATCHED)
-    det_pub = ros.publisher("/blocks/detected", MarkerArray)
-    goal_pub.publish(to_string_msg(goal_layout(scene)))
+    goal_pub = ros.publisher("/goal_layout", GoalLayout, LATCHED)
+    det_pub = ros.publisher("/blocks/detected", BlockPoseArray)
+    goal_pub.publish(ic.goal_layout_to_msg(goal_layout(scene)))
     ros.wait_for_subscribers(det_pub)
-    det_pub.publish(block_set_to_markers(BlockSet(scene.blocks)))
-    msg = ros.wait_for_message("/plan", String, timeout=60, qos=LATCHED)
-    plan = Plan.from_dict(json.loads(msg.data))
+    det_pub.publish(ic.block_set_to_msg(BlockSet(scene.blocks)))
+    msg = ros.wait_for_message("/plan", PlanMsg, timeout=60, qos=LATCHED)
+    plan = ic.plan_from_msg(msg)
     assert validate_plan(plan).ok
     return plan
 
@@ -38,9 +36,9 @@ def test_an_unlabeled_goal_is_planned_with_pebble_graphs(ros):
     plan = plan_for(ros, random_scene(4, 0.2, seed=3, labeled=False))
     assert plan.planner == "pebble_graphs" and not plan.scene.goal.labeled
     status = ros.wait_for_message(
-        "/planner/status", String, lambda m: json.loads(m.data)["state"] == "planned",
+        "/planner/status", PlannerStatus, lambda m: m.state == PlannerStatus.STATE_PLANNED,
         timeout=10, qos=LATCHED)
-    assert json.loads(status.data)["metrics"]["hypernodes"] >= 1
+    assert ic.planner_status_from_msg(status).metrics["hypernodes"] >= 1
 
 
 def test_the_baseline_is_a_parameter_away(ros):

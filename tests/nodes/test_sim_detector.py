@@ -6,10 +6,11 @@ import math
 
 import numpy as np
 import pytest
+from densepack_interfaces.msg import BlockPoseArray
 from rclpy.parameter import Parameter
-from visualization_msgs.msg import MarkerArray
 
-from msgs_py.ros_codecs import block_set_from_markers, stamp_to_ns
+from msgs_py.interface_codecs import block_set_from_msg
+from msgs_py.ros_codecs import stamp_to_ns
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
 from nodes.detector.calibrate_cli import CalibrateNode
@@ -30,14 +31,14 @@ def test_sim_frames_become_detections_matching_the_ground_truth(ros):
     sim = ros.add(SimNode(context=ros.context))
     ros.add(DetectorNode(context=ros.context, parameter_overrides=calibration_params()))
     ids = sorted(b.id for b in sim.scene.blocks)
-    msg = ros.wait_for_message("/blocks/detected", MarkerArray, timeout=60,
-                               predicate=lambda m: len(m.markers) == len(ids))
-    detected = block_set_from_markers(msg)
+    msg = ros.wait_for_message("/blocks/detected", BlockPoseArray, timeout=60,
+                               predicate=lambda m: len(m.blocks) == len(ids))
+    detected = block_set_from_msg(msg)
     assert detected.ids == ids and detected.missing == ()
-    stamp = stamp_to_ns(msg.markers[0].header.stamp)
-    truth = block_set_from_markers(ros.wait_for_message(
-        "/sim/ground_truth", MarkerArray, timeout=30,
-        predicate=lambda m: m.markers and stamp_to_ns(m.markers[0].header.stamp) >= stamp))
+    stamp = stamp_to_ns(msg.header.stamp)
+    truth = block_set_from_msg(ros.wait_for_message(
+        "/sim/ground_truth", BlockPoseArray, timeout=30,
+        predicate=lambda m: stamp_to_ns(m.header.stamp) >= stamp))
     for b in truth.blocks:  # the blocks rest: the truth a little later is the truth then
         got = detected.by_id()[b.id]
         assert math.hypot(got.x - b.x, got.y - b.y) < 1e-3

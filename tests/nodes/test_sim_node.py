@@ -2,22 +2,27 @@
 
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 import time
 
 import pytest
+from densepack_interfaces.msg import BlockPoseArray, Disturbance, GripperStatus, SimEvents
+from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image, JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from msgs_py.ros_codecs import block_set_from_markers, stamp_to_ns
+from msgs_py import ExecutorStatus
+from msgs_py import interface_codecs as ic
+from msgs_py.ros_codecs import stamp_to_ns
+from msgs_py.sim import Disturbance as DisturbanceRecord
+from msgs_py.sim import SimEvents as SimEventsRecord
 from nodes.common.qos import LATCHED
 from nodes.common.transforms import tool_down_quaternion
 from nodes.sim.config import PARK_POSITION
@@ -86,8 +91,10 @@ def test_setpoint_moves_the_tcp_and_state_topics_flow(ros):
     joints = ros.wait_for_message("/joint_states", JointState, timeout=10)
     assert joints.name[:6] == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
                                "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
-    truth = block_set_from_markers(ros.wait_for_message("/sim/ground_truth", MarkerArray))
+    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray))
     assert sorted(truth.ids) == list(range(9))
+    markers = ros.wait_for_message("/sim/ground_truth/markers", MarkerArray)
+    assert sorted(m.id for m in markers.markers) == list(range(9))
     send(ros, "/arm/cartesian_setpoint", PoseStamped, setpoint(0.7, 0.1, 0.2, 0.3))
     ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near((0.7, 0.1, 0.2)), timeout=30)
 
@@ -110,10 +117,11 @@ def test_malformed_messages_do_not_kill_the_node(ros):
     bad_quat.publish(setpoint(float("nan"), 0.0, 0.2))
     bad_quat.publish(setpoint(0.7, 0.0, 0.2, frame="camera_optical_frame"))
     send(ros, "/gripper/command", Float64, Float64(data=float("nan")))
-    disturb = send(ros, "/sim/disturb", String, String(data="{not json"))
-    disturb.publish(String(data=json.dumps({"block": 99, "dx": 0.01, "dy": 0.0})))
-    disturb.publish(String(data=json.dumps({"block": 1, "dx": "far", "dy": 0.0})))
-    send(ros, "/executor/status", String, String(data='{"state": "dancing"}'))
+    disturb = send(ros, "/sim/disturb", Disturbance, Disturbance(block=-3, dx=0.01))
+    disturb.publish(Disturbance(block=99, dx=0.01, dy=0.0))  # no such block
+    disturb.publish(Disturbance(block=1, dx=float("nan"), dy=0.0))
+    status = send(ros, "/executor/status", ExecutorStatusMsg, ExecutorStatusMsg(state=0))
+    status.publish(ExecutorStatusMsg(state=ExecutorStatusMsg.STATE_RUNNING, block=-7))
     time.sleep(1.0)
     bad_quat.publish(setpoint(0.65, 0.05, 0.22))  # a good one still works
     ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near((0.65, 0.05, 0.22)), timeout=30)
@@ -131,23 +139,21 @@ def test_gripper_command_and_reset(ros):
     response = ros.call_service("/sim/reset", Trigger, timeout=30)
     assert response.success, response.message
     ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near(PARK_POSITION), timeout=10)
-    events = ros.wait_for_message("/sim/events", String, qos=LATCHED, timeout=10)
-    assert json.loads(events.data) == {"unintended_contacts": 0, "blocks_lost": 0, "events": []}
+    events = ros.wait_for_message("/sim/events", SimEvents, qos=LATCHED, timeout=10)
+    assert ic.sim_events_from_msg(events) == SimEventsRecord(stamp_ns=stamp_to_ns(
+        events.header.stamp))
     assert sim.world.time_s < 5.0
 
 
 def test_executor_status_names_the_manipulated_block(ros):
-    from msgs_py import ExecutorStatus
-    from msgs_py.ros_codecs import to_string_msg
-
     sim = make_sim(ros)
-    pub = send(ros, "/executor/status", String,
-               to_string_msg(ExecutorStatus("running", action_index=1, action_total=3, block=3)))
+    pub = send(ros, "/executor/status", ExecutorStatusMsg, ic.executor_status_to_msg(
+        ExecutorStatus("running", action_index=1, action_total=3, block=3)))
     deadline = time.monotonic() + 10
     while sim.world.monitor.manipulated != 3 and time.monotonic() < deadline:
         time.sleep(0.05)
     assert sim.world.monitor.manipulated == 3
-    pub.publish(to_string_msg(ExecutorStatus("observing")))
+    pub.publish(ic.executor_status_to_msg(ExecutorStatus("observing")))
     deadline = time.monotonic() + 10
     while sim.world.monitor.manipulated is not None and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -156,14 +162,14 @@ def test_executor_status_names_the_manipulated_block(ros):
 
 def test_disturb_pushes_a_block(ros):
     make_sim(ros)
-    send(ros, "/sim/disturb", String, String(data=json.dumps({"block": 4, "dx": 0.02,
-                                                               "dy": 0.0})))
+    send(ros, "/sim/disturb", Disturbance, ic.disturbance_to_msg(
+        DisturbanceRecord(4, 0.02, 0.0)))
 
-    def moved(msg: MarkerArray) -> bool:
-        block = block_set_from_markers(msg).by_id()[4]
+    def moved(msg: BlockPoseArray) -> bool:
+        block = ic.block_set_from_msg(msg).by_id()[4]
         return abs(block.x - 0.75) < 0.004 and abs(block.y - 0.12) < 0.004
 
-    ros.wait_for_message("/sim/ground_truth", MarkerArray, moved, timeout=30)
+    ros.wait_for_message("/sim/ground_truth", BlockPoseArray, moved, timeout=30)
 
 
 def test_densepack_sim_runs_and_echo_shows_camera_info_across_processes():
@@ -213,3 +219,16 @@ def test_camera_blackout_drops_frames_for_a_while(ros):
     while not frames and time.monotonic() < deadline:
         time.sleep(0.05)
     assert len(frames) == 1
+
+
+def test_gripper_status_reports_gap_request_and_object(ros):
+    make_sim(ros)
+    send(ros, "/gripper/command", Float64, Float64(data=0.02))
+
+    def at_request(msg: GripperStatus) -> bool:
+        status = ic.gripper_status_from_msg(msg)
+        return (status.object == "at_position" and abs(status.requested_gap - 0.02) < 1e-9
+                and abs(status.gap - 0.02) < 1e-3)
+
+    msg = ros.wait_for_message("/gripper/status", GripperStatus, at_request, timeout=20)
+    assert stamp_to_ns(msg.header.stamp) > 0

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from std_msgs.msg import String
+from densepack_interfaces.msg import ExecutorStatus
 
 from nodes.common.qos import LATCHED
 from nodes.tools.cell_run import another_cell
@@ -13,5 +13,5 @@ pytestmark = pytest.mark.ros
 
 def test_a_cell_on_the_domain_is_found_by_the_topics_only_a_cell_publishes(ros):
     assert another_cell(ros.probe, wait_s=0.5) is None
-    ros.publisher("/executor/status", String, LATCHED)
+    ros.publisher("/executor/status", ExecutorStatus, LATCHED)
     assert another_cell(ros.probe, wait_s=5.0) == "/executor/status"

@@ -9,9 +9,9 @@ import threading
 import time
 
 import pytest
-from std_msgs.msg import String
+from densepack_interfaces.msg import GoalLayout
 
-from msgs_py.ros_codecs import scene_from_string
+from msgs_py.interface_codecs import goal_layout_from_msg
 from nodes.common.qos import LATCHED
 from tests.helpers import script
 
@@ -71,8 +71,8 @@ def test_cell_runs_the_goal_node_and_stops_cleanly(ros, mode, sig):
     cell = Cell("--nodes", "goal", *mode)
     try:
         cell.wait_for_output("published the goal")
-        msg = ros.wait_for_message("/goal_layout", String, timeout=60, qos=LATCHED)
-        assert scene_from_string(msg).goal.n_slots == 9
+        msg = ros.wait_for_message("/goal_layout", GoalLayout, timeout=60, qos=LATCHED)
+        assert goal_layout_from_msg(msg).goal.n_slots == 9
     finally:
         code, out = cell.stop(sig)
     assert code == 0, out
@@ -120,6 +120,16 @@ def test_command_line_parameters_override_the_cell_file(tmp_path):
     (launch,), _ = load_cell(cell, extra_params={"scene_file": "/x/c.yaml"})
     assert launch.parameters["scene_file"] == "/x/c.yaml"
     assert launch.ros_args()[-2:] == ["-p", "scene_file:=/x/c.yaml"]
+    (launch,), _ = load_cell(cell, node_params={"goal": {"scene_file": "d.yaml"}})
+    assert launch.parameters["scene_file"] == "d.yaml"
+
+
+def test_without_leaves_nodes_out():
+    out = subprocess.run([script("densepack-cell"), "--list", "--without", "goal,planner"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    names = [line.split(":")[0] for line in out.stdout.splitlines()]
+    assert "goal" not in names and "planner" not in names and "executor" in names
 
 
 def test_nodes_do_not_outlive_a_killed_launcher():

@@ -20,8 +20,10 @@ def colcon_install(tmp_path_factory) -> Path:
     env = dict(os.environ, PATH=f"{BIN}:{os.environ['PATH']}")
     # Only the python package: densepack_interfaces (ament_cmake) needs ament_cmake and the
     # rosidl generators, which an apt ROS install has and this venv does not (pip builds it in
-    # an isolated environment from its own pyproject.toml).
-    out = subprocess.run([str(BIN / "colcon"), "build", "--packages-select", "densepack"],
+    # an isolated environment from its own pyproject.toml, and the venv has it). Ignored, not
+    # just unselected: densepack depends on it, and colcon would look for its install.
+    out = subprocess.run([str(BIN / "colcon"), "build", "--packages-ignore",
+                          "densepack_interfaces"],
                          cwd=work, env=env, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
     return work / "install" / "densepack"
@@ -66,3 +68,12 @@ def test_installed_executables_answer_help_from_the_install_tree(colcon_install)
     module_file, share = where.stdout.split()
     assert module_file.startswith(str(colcon_install)), "the checkout shadowed the install"
     assert share.startswith(str(colcon_install)), "data not found in share/densepack"
+
+
+def test_the_node_package_depends_on_the_interface_package():
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(REPO / "ros_ws" / "src" / "densepack" / "package.xml").getroot()
+    assert "densepack_interfaces" in [e.text for e in root.findall("depend")]
+    interfaces = ET.parse(REPO / "ros_ws" / "src" / "densepack_interfaces" / "package.xml")
+    assert interfaces.getroot().find("export/build_type").text == "ament_cmake"

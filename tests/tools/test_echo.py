@@ -8,7 +8,7 @@ import subprocess
 import pytest
 import yaml
 
-from tests.helpers import script, spawn_string_publisher
+from tests.helpers import script, spawn_publisher
 
 pytestmark = pytest.mark.ros
 
@@ -18,9 +18,13 @@ def run_echo(*args: str, timeout: float = 60.0) -> subprocess.CompletedProcess:
                           timeout=timeout)
 
 
-def test_echo_once_decodes_a_json_string_published_by_another_process():
-    payload = repr(json.dumps({"state": "running", "action_index": 3}))
-    pub = spawn_string_publisher("/echo_test/status", payload)
+STATUS = ("from densepack_interfaces.msg import ExecutorStatus",
+          "ExecutorStatus", "ExecutorStatus(state=ExecutorStatus.STATE_RUNNING, plan_id='p1', "
+          "action_index=3, action_total=5, block=4, detail='action 3/5')")
+
+
+def test_echo_once_prints_a_typed_message_published_by_another_process():
+    pub = spawn_publisher("/echo_test/status", *STATUS)
     try:
         out = run_echo("/echo_test/status", "--once", "--timeout", "30")
     finally:
@@ -28,11 +32,14 @@ def test_echo_once_decodes_a_json_string_published_by_another_process():
         pub.wait()
     assert out.returncode == 0, out.stderr
     doc = yaml.safe_load(out.stdout.split("---")[0])
-    assert doc == {"data": {"state": "running", "action_index": 3}}
+    assert doc["state"] == 2 and doc["plan_id"] == "p1" and doc["block"] == 4
+    assert (doc["action_index"], doc["action_total"], doc["detail"]) == (3, 5, "action 3/5")
+    assert doc["stamp"] == {"sec": 0, "nanosec": 0} and doc["metrics"] == []
 
 
 def test_echo_json_count_prints_one_object_per_line():
-    pub = spawn_string_publisher("/echo_test/plain", repr("hello"), period=0.05)
+    pub = spawn_publisher("/echo_test/plain", "from std_msgs.msg import String", "String",
+                          "String(data='hello')", period=0.05)
     try:
         out = run_echo("/echo_test/plain", "--json", "--count", "3", "--timeout", "30")
     finally:
@@ -44,15 +51,14 @@ def test_echo_json_count_prints_one_object_per_line():
 
 
 def test_echo_gets_the_last_message_of_a_latched_topic():
-    pub = spawn_string_publisher("/echo_test/latched", repr('{"goal": 1}'), count=1,
-                                 qos="LATCHED", linger=30)
+    pub = spawn_publisher("/echo_test/latched", *STATUS, count=1, qos="LATCHED", linger=30)
     try:
         out = run_echo("/echo_test/latched", "--once", "--timeout", "30")
     finally:
         pub.kill()
         pub.wait()
     assert out.returncode == 0, out.stderr
-    assert yaml.safe_load(out.stdout.split("---")[0]) == {"data": {"goal": 1}}
+    assert yaml.safe_load(out.stdout.split("---")[0])["detail"] == "action 3/5"
 
 
 def test_echo_times_out_on_a_silent_topic_with_a_clear_message():

@@ -17,15 +17,14 @@ import time
 
 import pytest
 from action_msgs.msg import GoalStatus
-from densepack_interfaces.action import Rearrange
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.srv import PlanScene
-from rclpy.action import ActionClient
 
 from msgs_py import BlockPose, Goal, GoalSlot, PickPlace, Plan, Pose2D, Push, Scene, Workspace
 from msgs_py import interface_codecs as ic
 from msgs_py.tasks import PlanRequest
 from nodes.common.qos import LATCHED, RELIABLE
+from tests.actions import Goals, wait_future
 from tests.helpers import REPO
 
 pytestmark = pytest.mark.ros
@@ -68,15 +67,6 @@ def peer():
             proc.wait()
 
 
-def wait_future(future, what: str, timeout: float = TIMEOUT):
-    deadline = time.monotonic() + timeout
-    while not future.done():
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"{what}: no answer in {timeout} s")
-        time.sleep(0.01)
-    return future.result()
-
-
 def test_the_peer_runs_on_this_sessions_private_loopback_domain(peer):
     words = next(line for line in peer if line.startswith("READY")).split()
     assert words[1:] == [os.environ["ROS_DOMAIN_ID"], "LOCALHOST"]
@@ -115,23 +105,8 @@ def test_plan_scene_answers_a_plan_or_a_refusal_naming_the_field(ros, peer):
     assert refusal.failed_field == "scene.blocks[1]" and "overlaps" in refusal.message
 
 
-class Goals:
-    """Rearrange goals sent from the test's harness node, with their feedback."""
-
-    def __init__(self, ros) -> None:
-        self.client = ActionClient(ros.probe, Rearrange, f"{PREFIX}/rearrange")
-        assert self.client.wait_for_server(timeout_sec=TIMEOUT), "no Rearrange server"
-        self.feedback: list = []
-
-    def send(self, layout: Rearrange.Goal):
-        future = self.client.send_goal_async(
-            layout, feedback_callback=lambda fb: self.feedback.append(
-                ic.rearrange_feedback_from_msg(fb.feedback)))
-        return wait_future(future, "send_goal")
-
-
 def test_rearrange_runs_with_feedback_and_result(ros, peer):
-    goals = Goals(ros)
+    goals = Goals(ros, f"{PREFIX}/rearrange", TIMEOUT)
     handle = goals.send(ic.rearrange_goal_to_msg(a_scene().with_blocks(())))
     assert handle.accepted
     answer = wait_future(handle.get_result_async(), "result")
@@ -146,7 +121,7 @@ def test_rearrange_runs_with_feedback_and_result(ros, peer):
 
 
 def test_rearrange_is_canceled_after_its_first_feedback(ros, peer):
-    goals = Goals(ros)
+    goals = Goals(ros, f"{PREFIX}/rearrange", TIMEOUT)
     handle = goals.send(ic.rearrange_goal_to_msg(a_scene().with_blocks(())))
     assert handle.accepted
     deadline = time.monotonic() + TIMEOUT
@@ -165,4 +140,4 @@ def test_rearrange_is_canceled_after_its_first_feedback(ros, peer):
 def test_a_malformed_rearrange_goal_is_rejected_when_sent(ros, peer):
     goal = ic.rearrange_goal_to_msg(a_scene().with_blocks(()))
     goal.layout.goal.slots[1].pose.x = math.nan
-    assert not Goals(ros).send(goal).accepted
+    assert not Goals(ros, f"{PREFIX}/rearrange", TIMEOUT).send(goal).accepted

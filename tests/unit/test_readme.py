@@ -53,3 +53,35 @@ def test_the_defaults_in_the_readme_tables_are_the_declared_ones(module):
             if shown and yaml.safe_load(shown.group(1)) != yaml.safe_load(row["default"]):
                 wrong.append(f"{row['name']}: README {shown.group(1)}, declared {row['default']}")
     assert not wrong, f"README section '{spec.name}' shows stale defaults: {wrong}"
+
+
+def test_the_documented_rearrange_goal_is_the_default_scenes_goal():
+    """The `ros2 action send_goal` example of docs/nodes.md fills a Rearrange goal that
+    decodes to the default scene's goal layout and passes the executor's goal checks."""
+    import yaml
+    from densepack_interfaces.action import Rearrange
+
+    from msgs_py import BlockSet, load_scene
+    from msgs_py.interface_codecs import rearrange_goal_from_msg
+    from nodes.common.paths import config_path
+    from nodes.executor.config import ExecutorConfig
+    from nodes.executor.goals import check_layout
+    from nodes.tools.goal import goal_layout
+
+    example = re.search(r'send_goal --feedback /rearrange densepack_interfaces/action/Rearrange '
+                        r'"(\{layout:.*?\})"\n', NODES, re.S)
+    assert example, "docs/nodes.md lost its send_goal example"
+
+    def fill(msg, data):
+        for name, value in data.items():
+            if isinstance(value, dict):
+                fill(getattr(msg, name), value)
+            else:
+                setattr(msg, name, value)
+        return msg
+
+    goal = fill(Rearrange.Goal(), yaml.safe_load(example.group(1)))
+    scene = load_scene(config_path("scenes/default.yaml"))
+    layout = rearrange_goal_from_msg(goal)
+    assert layout == goal_layout(scene)
+    check_layout(layout, BlockSet(scene.blocks), ExecutorConfig().safe_box)

@@ -21,9 +21,11 @@ from densepack_interfaces.msg import (
 from densepack_interfaces.msg import (
     ExecutorStatus as ExecutorStatusMsg,
 )
+from densepack_interfaces.msg import GripperStatus as GripperStatusMsg
 from densepack_interfaces.msg import (
     PlannerStatus as PlannerStatusMsg,
 )
+from densepack_interfaces.msg import SimEvent as SimEventMsg
 from densepack_interfaces.srv import PlanScene
 from hypothesis import given
 from hypothesis import strategies as st
@@ -49,6 +51,8 @@ from msgs_py import (
     Workspace,
 )
 from msgs_py import interface_codecs as ic
+from msgs_py.sim import ROBOT_PARTS, SIM_EVENT_TYPES, Disturbance, SimEvent, SimEvents
+from msgs_py.status import GRIPPER_OBJECT_STATES, GripperStatus
 from msgs_py.tasks import (
     PLAN_ERRORS,
     REARRANGE_OUTCOMES,
@@ -321,6 +325,60 @@ def test_rearrange_results_round_trip(outcome, detail, errors, figures):
     roundtrip(result, ic.rearrange_result_to_msg, ic.rearrange_result_from_msg)
 
 
+stamps = st.integers(0, (2**31 - 1) * 10**9)
+
+
+@st.composite
+def sim_events(draw):
+    kind = draw(st.sampled_from(SIM_EVENT_TYPES))
+    time_s, block = draw(st.floats(0, 1e5)), draw(ids)
+    if kind == "block_contact":
+        return SimEvent(kind, time_s, block, other_block=draw(ids),
+                        manipulated=draw(optional_blocks))
+    if kind == "unintended_contact":
+        return SimEvent(kind, time_s, block, robot=draw(st.sampled_from(ROBOT_PARTS)),
+                        manipulated=draw(optional_blocks))
+    return SimEvent(kind, time_s, block, reason=draw(st.text(chars, min_size=1, max_size=20)))
+
+
+@given(st.lists(sim_events(), max_size=6), counts, counts, stamps)
+def test_sim_events_round_trip_and_keep_the_monitors_form(events, contacts, lost, stamp):
+    record = SimEvents(contacts, lost, tuple(events), stamp)
+    roundtrip(record, ic.sim_events_to_msg, ic.sim_events_from_msg)
+    assert SimEvents.from_summary(record.to_dict(), stamp) == record
+
+
+@given(st.floats(0, 0.085), st.floats(0, 0.085), st.sampled_from(GRIPPER_OBJECT_STATES), stamps)
+def test_gripper_status_round_trips(gap, requested, state, stamp):
+    roundtrip(GripperStatus(gap, requested, state, stamp), ic.gripper_status_to_msg,
+              ic.gripper_status_from_msg)
+
+
+@given(ids, st.floats(-0.1, 0.1), st.floats(-0.1, 0.1))
+def test_disturbances_round_trip(block, dx, dy):
+    roundtrip(Disturbance(block, dx, dy), ic.disturbance_to_msg, ic.disturbance_from_msg)
+
+
+def test_malformed_sim_messages_are_refused_by_field():
+    msg = ic.sim_events_to_msg(SimEvents(1, 0, (SimEvent("unintended_contact", 2.0, 3,
+                                                         robot="finger"),)))
+    msg.events[0].type = 9
+    refused(ic.sim_events_from_msg, msg, "events[0].type")
+    msg.events[0].type = SimEventMsg.TYPE_BLOCK_LOST  # a lost block has a reason, no robot
+    refused(ic.sim_events_from_msg, msg, "events[0].robot")
+    status = ic.gripper_status_to_msg(GripperStatus(0.05, 0.0, "stopped_closing"))
+    status.object = 7
+    refused(ic.gripper_status_from_msg, status, "object")
+    status.object, status.gap = GripperStatusMsg.OBJECT_MOVING, math.nan
+    refused(ic.gripper_status_from_msg, status, "gap")
+    nudge = ic.disturbance_to_msg(Disturbance(1, 0.01, 0.0))
+    nudge.block = -2
+    refused(ic.disturbance_from_msg, nudge, "block")
+    with pytest.raises(MessageError, match=re.escape("events[0]")):
+        SimEvents.from_summary({"unintended_contacts": 0, "blocks_lost": 0,
+                                "events": [{"t": 1.0, "type": "teleport", "block": 1}]})
+
+
 def test_dispatch_covers_every_record():
     scene = Scene(WS, S, (BlockPose(0, 0.6, 0.0, 0.3),), Goal(slots=(GoalSlot(0.8, 0.1, 0.0, 0),)))
     records = [Pose2D(1, 2, 0.5), BlockPose(3, 0.1, 0.2), BlockSet((BlockPose(1, 0, 0),)), WS,
@@ -328,7 +386,10 @@ def test_dispatch_covers_every_record():
                Push.between(0, Pose2D(0, 0), Pose2D(0.1, 0)), Plan((), scene=scene), scene,
                ExecutorStatus("running"), PlannerStatus("planned"), PlanRequest(scene),
                PlanReply.refused("busy", "planning"), RearrangeFeedback("observing"),
-               RearrangeResult("canceled"), BlockError(1, 0.001, 0.01)]
+               RearrangeResult("canceled"), BlockError(1, 0.001, 0.01),
+               GripperStatus(0.05, 0.0, "stopped_closing", 7), Disturbance(2, 0.01, -0.01),
+               SimEvent("block_lost", 3.5, 4, reason="tipped over"),
+               SimEvents(0, 1, (SimEvent("block_lost", 3.5, 4, reason="tipped over"),), 9)]
     for record in records:
         assert ic.from_msg(wire(ic.to_msg(record))) == record
     with pytest.raises(TypeError):
@@ -344,6 +405,9 @@ def test_every_vocabulary_word_has_a_constant_and_back():
     assert constants(Rearrange.Result, "OUTCOME_") == {
         f"OUTCOME_{s.upper()}" for s in REARRANGE_OUTCOMES}
     assert constants(PlanScene.Response, "ERROR_") == {f"ERROR_{s.upper()}" for s in PLAN_ERRORS}
+    assert constants(SimEventMsg, "TYPE_") == {f"TYPE_{s.upper()}" for s in SIM_EVENT_TYPES}
+    assert constants(GripperStatusMsg, "OBJECT_") == {
+        f"OBJECT_{s.upper()}" for s in GRIPPER_OBJECT_STATES}
 
 
 # --- refusals ---------------------------------------------------------------------------------
