@@ -8,11 +8,14 @@ coordinates (x, y) = (X/Z, Y/Z), r^2 = x^2 + y^2, is imaged at
 
 then through the camera matrix: u = fx x' + cx, v = fy y' + cy. "Ideal pixels" are the
 pinhole's (fx x + cx, fy y + cy): where the point would be imaged by a perfect lens.
-The sim renders the ideal image and warps it into the distorted one with
-``ideal_source_map``; the detector maps its measured corners back with ``undistort_pixels``.
+The sim renders the ideal image and warps it into the distorted one with ``lens_warp``;
+the detector maps its measured corners back with ``undistort_pixels``.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -75,3 +78,38 @@ def ideal_source_map(intrinsics: CameraIntrinsics) -> tuple[np.ndarray, np.ndarr
     ideal = undistort_pixels(np.column_stack([u.ravel(), v.ravel()]), intrinsics)
     return (ideal[:, 0].reshape(h, w).astype(np.float32),
             ideal[:, 1].reshape(h, w).astype(np.float32))
+
+
+#: Canvas margin beyond the farthest ideal pixel needed (bilinear reads one more pixel).
+CANVAS_MARGIN_PX = 2
+
+
+@dataclass(frozen=True)
+class LensWarp:
+    """How to image a scene through a lens with a pinhole renderer: render the ideal image
+    of ``canvas`` (the same camera with an ideal lens, on a canvas grown until it holds
+    every ideal pixel the distorted image shows), then ``apply`` the warp."""
+
+    canvas: CameraIntrinsics
+    map_x: np.ndarray
+    map_y: np.ndarray
+
+    def apply(self, ideal: np.ndarray) -> np.ndarray:
+        """The distorted image (the camera's size) of an ideal image of ``canvas``."""
+        return cv2.remap(ideal, self.map_x, self.map_y, cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE)
+
+
+@lru_cache(maxsize=4)
+def lens_warp(intrinsics: CameraIntrinsics) -> LensWarp:
+    """The canvas and remap tables of a camera (computed once per camera)."""
+    map_x, map_y = ideal_source_map(intrinsics)
+    w, h = intrinsics.width, intrinsics.height
+    left = max(0, int(np.ceil(-float(map_x.min()))) + CANVAS_MARGIN_PX)
+    top = max(0, int(np.ceil(-float(map_y.min()))) + CANVAS_MARGIN_PX)
+    right = max(0, int(np.ceil(float(map_x.max()) - (w - 1))) + CANVAS_MARGIN_PX)
+    bottom = max(0, int(np.ceil(float(map_y.max()) - (h - 1))) + CANVAS_MARGIN_PX)
+    i = intrinsics
+    canvas = CameraIntrinsics(w + left + right, h + top + bottom, i.fx, i.fy, i.cx + left,
+                              i.cy + top)
+    return LensWarp(canvas, map_x + np.float32(left), map_y + np.float32(top))

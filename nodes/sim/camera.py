@@ -24,13 +24,12 @@ Everything random comes from the caller's generator (the sim's ``seed``).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
 
 import cv2
 import numpy as np
 
 from msgs_py.camera import NO_DISTORTION, CameraIntrinsics
-from nodes.common.lens import distort_pixels, ideal_source_map, undistort_pixels
+from nodes.common.lens import distort_pixels, lens_warp, undistort_pixels
 from nodes.common.transforms import quaternion_to_matrix
 
 #: Grey level of the full well: a saturated pixel reads 255.
@@ -134,34 +133,6 @@ class SimCamera:
                 & (uv[:, 1] >= margin_px) & (uv[:, 1] <= self.height - 1 - margin_px))
 
 
-@dataclass(frozen=True)
-class LensWarp:
-    """How to image through the lens: render ``canvas`` (a pinhole camera whose image holds
-    every ideal pixel the distorted image shows), then ``cv2.remap`` it with the maps."""
-
-    canvas: SimCamera
-    map_x: np.ndarray
-    map_y: np.ndarray
-
-
-#: Canvas margin beyond the farthest ideal pixel needed (bilinear reads one more pixel).
-CANVAS_MARGIN_PX = 2
-
-
-@lru_cache(maxsize=4)
-def lens_warp(camera: SimCamera) -> LensWarp:
-    """The canvas and remap tables of a distorting camera (computed once per camera)."""
-    map_x, map_y = ideal_source_map(camera.intrinsics)
-    left = max(0, int(np.ceil(-float(map_x.min()))) + CANVAS_MARGIN_PX)
-    top = max(0, int(np.ceil(-float(map_y.min()))) + CANVAS_MARGIN_PX)
-    right = max(0, int(np.ceil(float(map_x.max()) - (camera.width - 1))) + CANVAS_MARGIN_PX)
-    bottom = max(0, int(np.ceil(float(map_y.max()) - (camera.height - 1))) + CANVAS_MARGIN_PX)
-    canvas = replace(camera, width=camera.width + left + right,
-                     height=camera.height + top + bottom, cx=camera.cx + left,
-                     cy=camera.cy + top, distortion=NO_DISTORTION)
-    return LensWarp(canvas, map_x + np.float32(left), map_y + np.float32(top))
-
-
 def _render_pinhole(client, camera: SimCamera) -> np.ndarray:
     """(H, W, 3) uint8 RGB of the pinhole ``camera`` (TinyRenderer, headless)."""
     import pybullet
@@ -178,10 +149,11 @@ def render_rgb(client, camera: SimCamera, noise_std: float = 0.0,
     """Render (H, W, 3) uint8 RGB as ``camera`` images the scene: through its lens
     (distortion), blurred, with shot noise and ``noise_std`` read noise (grey levels)."""
     if camera.intrinsics.distorted:
-        warp = lens_warp(camera)
-        ideal = _render_pinhole(client, warp.canvas)
-        image = cv2.remap(ideal.astype(np.float32), warp.map_x, warp.map_y, cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REPLICATE)
+        warp = lens_warp(camera.intrinsics)
+        c = warp.canvas
+        canvas = replace(camera, width=c.width, height=c.height, cx=c.cx, cy=c.cy,
+                         distortion=NO_DISTORTION)
+        image = warp.apply(_render_pinhole(client, canvas).astype(np.float32))
     else:
         image = _render_pinhole(client, camera).astype(np.float32)
     return expose(image, camera, noise_std, rng)
