@@ -22,14 +22,6 @@ pytestmark = pytest.mark.ros
 #: Five placements over the default workspace (x, y, theta).
 PLACEMENTS = [0.52, -0.27, 0.3, 0.52, 0.27, 0.9, 0.70, 0.0, 0.6, 0.88, -0.27, 0.7,
               0.88, 0.27, -0.3]
-SCENE = """version: 1
-workspace: {x_min: 0.45, x_max: 0.95, y_min: -0.35, y_max: 0.35}
-block_size: 0.0508
-blocks:
-  - {id: 3, x: 0.64, y: 0.12, theta: 0.4}
-goal:
-  poses: [{id: 3, x: 0.64, y: 0.12, theta: 0.4}]
-"""
 
 
 def table_error_mm(a: CameraModel, b: CameraModel) -> float:
@@ -43,8 +35,6 @@ def table_error_mm(a: CameraModel, b: CameraModel) -> float:
 
 
 def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_path):
-    scene = tmp_path / "one_block.yaml"
-    scene.write_text(SCENE)
     camera = CameraConfig()
     true = CameraModel.from_pose(camera.model().intrinsics,
                                  CameraPose(tuple(camera.position),
@@ -58,7 +48,8 @@ def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_p
     assert table_error_mm(true, off) > 5.0  # the calibration the routine starts from
     out = tmp_path / "camera_calibration.yaml"
     ros.add(SimNode(context=ros.context, parameter_overrides=[
-        Parameter("scene_file", value=str(scene)), Parameter("camera.rate_hz", value=0.0)]))
+        Parameter("scene_file", value="scenes/calibration_arm.yaml"),
+        Parameter("camera.rate_hz", value=0.0)]))
     node = ros.add(CalibrateNode(context=ros.context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("mode", value="arm"),
         Parameter("calibration_file", value=str(start)),
