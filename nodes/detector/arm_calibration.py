@@ -53,6 +53,10 @@ DEFAULT_PLACEMENTS = (
 )
 #: The 2F-85's stroke leaves at most this much beside a 50.8 mm block on each side (m).
 MAX_FIRST_CLEARANCE = 0.017
+#: A tick advances the running script by at most this many tick periods, as the executor's:
+#: a routine held up (a loaded machine) resumes its trajectory where it was instead of
+#: sending a setpoint far along the path (a chord across a corner).
+MAX_TICKS_PER_STEP = 2.0
 #: Ask the camera again after this long without an accepted frame (s).
 FRAME_RETRY_S = 1.0
 
@@ -175,6 +179,8 @@ class ArmCalibration:
         self._release: Step | None = None
         self._placing: Placement | None = None
         self._parking = False
+        self._lag = 0.0  #: how far the script's time trails the clock (s)
+        self._last_run: float | None = None
         self._since = -math.inf  #: frames must be taken at or after this time (s)
         self._asked = -math.inf
         self._frames_seen = 0
@@ -242,8 +248,13 @@ class ArmCalibration:
     def _run(self, now: float, out: Outputs) -> None:
         runner = self.runner
         assert runner is not None
-        gaps, self._gaps = self._gaps, []
-        tick = runner.update(now, self.tcp, self.tcp_stamp, gaps)
+        step = 0.0 if self._last_run is None else now - self._last_run
+        self._lag += max(0.0, step - MAX_TICKS_PER_STEP / self.cfg.rate_hz)
+        self._last_run = now
+        lag = self._lag
+        gaps, self._gaps = [(t - lag, g) for t, g in self._gaps], []
+        measured_at = None if self.tcp_stamp is None else self.tcp_stamp - lag
+        tick = runner.update(now - lag, self.tcp, measured_at, gaps)
         self.commanded = tick.setpoint
         out.setpoint, out.gripper = tick.setpoint, tick.gripper
         if self._release is not None and any(s is self._release for s in runner.finished_steps):
@@ -308,6 +319,7 @@ class ArmCalibration:
             return
         self.runner = StepRunner(steps, start, self.cfg.convergence_tol,
                                  self.cfg.convergence_timeout_s, self.cfg.in_safe_box)
+        self._lag, self._last_run = 0.0, None
         self.phase = Phase.MOVE
         self._since = -math.inf
 
@@ -330,9 +342,11 @@ class ArmCalibration:
         seen = p.perceived
         dx = 1e3 * (sum(b.x for b in seen) / len(seen) - p.block.x)
         dy = 1e3 * (sum(b.y for b in seen) / len(seen) - p.block.y)
+        assert p.tcp is not None
         return (f"placement {p.index}: block at ({p.block.x:.4f}, {p.block.y:.4f}, "
-                f"{math.degrees(p.block.theta):.1f} deg) by the TCP; the current calibration "
-                f"sees it {dx:+.2f}, {dy:+.2f} mm off")
+                f"{math.degrees(p.block.theta):.1f} deg) by the TCP (yaw "
+                f"{math.degrees(p.tcp.yaw):.1f} deg); the current calibration sees it "
+                f"{dx:+.2f}, {dy:+.2f} mm off")
 
     def report(self) -> str:
         return "\n".join(self._placement_line(p) for p in self.placements if p.views)

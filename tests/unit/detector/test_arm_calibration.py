@@ -53,3 +53,20 @@ def test_the_first_grasp_straddles_a_centimetre_of_calibration_error():
     assert abs(turn) == pytest.approx(math.pi / 2)
     labels = [s.label for s in routine.runner.steps]
     assert labels[-1] == "look" and routine._release is grips[-1]
+
+
+def test_a_late_tick_resumes_the_motion_where_it_was():
+    """Held up for a second (a loaded machine), the routine does not jump along its path:
+    consecutive setpoints stay within two ticks of travel, as the executor's do."""
+    cfg = ExecutorConfig()
+    routine = ArmCalibration(ArmRoutineConfig(block_id=3), cfg)
+    routine.on_tcp(ToolPose(0.25, -0.55, 0.40, 0.0), 0.0)
+    routine.tick(0.0)
+    routine.on_frame(0.1, (), {3: BlockPose(3, 0.64, 0.12, 0.4)})
+    previous = None
+    for now in [0.2 + k / cfg.rate_hz for k in range(40)] + [2.0, 2.02, 2.04]:
+        setpoint = routine.tick(now).setpoint
+        if previous is not None:
+            assert setpoint.distance_to(previous) <= 2 * cfg.speed / cfg.rate_hz + 1e-9
+        previous = setpoint
+        routine.on_tcp(setpoint, now)
