@@ -265,7 +265,7 @@ class CalibrateNode(Node):
 
 def main(args=None) -> int:
     import rclpy
-    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
 
     argv = list(sys.argv if args is None else ["densepack-calibrate", *args])
     user_args, ros_argv = split_ros_args(argv)
@@ -282,7 +282,11 @@ def main(args=None) -> int:
     node = None
     try:
         node = CalibrateNode()
-        executor = MultiThreadedExecutor(num_threads=2)
+        # One thread: a MultiThreadedExecutor's spin_once returns while the callback it
+        # started still runs, so a spin_once loop can spin at 100 % CPU and starve the
+        # callbacks (the arm routine's setpoint stream, which paces the sim). The routine
+        # takes frames only with the arm at rest, so a detection never delays a motion.
+        executor = SingleThreadedExecutor()
         executor.add_node(node)
         deadline = time.monotonic() + (node.arm_config.timeout_s if node.arm
                                        else node.config.timeout_s)
