@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import CameraInfo, Image
 
-from msgs_py.camera import CameraIntrinsics
+from msgs_py.camera import DISTORTION_MODEL, NO_DISTORTION, CameraIntrinsics
 from msgs_py.errors import MessageError
 from msgs_py.ros_codecs import ns_to_stamp
 
@@ -63,34 +63,42 @@ def array_to_image(pixels: np.ndarray, stamp_ns: int, frame_id: str = "camera_op
 
 
 def camera_info_to_intrinsics(msg: CameraInfo) -> CameraIntrinsics:
-    """Pinhole intrinsics from ``k``; refuses distortion (densepack's camera has none).
+    """Intrinsics from ``k`` and the ``plumb_bob`` distortion ``d`` (k1, k2, p1, p2, k3).
+
+    An empty ``d`` means an ideal lens, whatever the model's name; non-zero coefficients
+    of any other model are refused rather than silently ignored.
 
     Raises:
         MessageError: zero size, a non-positive or non-finite focal length, a malformed
-            ``k``, or non-zero distortion coefficients.
+            ``k``, a ``d`` of another model or length, or one that folds the image over.
     """
     k = [float(v) for v in msg.k]
     if len(k) != 9 or k[1] != 0.0 or k[3] != 0.0 or k[6:] != [0.0, 0.0, 1.0]:
         raise MessageError("camera_info.k", k, "expected [fx, 0, cx, 0, fy, cy, 0, 0, 1]")
-    if any(float(v) != 0.0 for v in msg.d):
-        raise MessageError("camera_info.d", list(msg.d),
-                           "non-zero distortion is not supported (pinhole camera expected)")
+    d = [float(v) for v in msg.d]
+    if not any(d):
+        d = list(NO_DISTORTION)
+    elif msg.distortion_model != DISTORTION_MODEL:
+        raise MessageError("camera_info.distortion_model", msg.distortion_model,
+                           f"only {DISTORTION_MODEL} distortion is supported")
     if msg.width == 0 or msg.height == 0:
         raise MessageError("camera_info.width x height", (msg.width, msg.height),
                            "image size not set")
-    return CameraIntrinsics(int(msg.width), int(msg.height), k[0], k[4], k[2], k[5])
+    return CameraIntrinsics(int(msg.width), int(msg.height), k[0], k[4], k[2], k[5], tuple(d))
 
 
 def intrinsics_to_camera_info(intrinsics: CameraIntrinsics, stamp_ns: int,
                               frame_id: str = "camera_optical_frame") -> CameraInfo:
-    """``CameraInfo`` as the contract fixes it: k and p from the intrinsics, d all zero."""
+    """``CameraInfo`` as the contract fixes it: k and p from the intrinsics (p = k: the
+    detector works on the raw image, no rectified one is published), d = the plumb_bob
+    coefficients."""
     i = intrinsics
     msg = CameraInfo()
     msg.header.stamp = ns_to_stamp(stamp_ns)
     msg.header.frame_id = frame_id
     msg.width, msg.height = i.width, i.height
-    msg.distortion_model = "plumb_bob"
-    msg.d = [0.0] * 5
+    msg.distortion_model = DISTORTION_MODEL
+    msg.d = [float(v) for v in i.d]
     msg.k = [i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0]
     msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
     msg.p = [i.fx, 0.0, i.cx, 0.0, 0.0, i.fy, i.cy, 0.0, 0.0, 0.0, 1.0, 0.0]

@@ -4,7 +4,8 @@
 
 Each seed draws a scene of 9 to 25 blocks scattered at random (``nodes.common.scenes``),
 builds it with the sim's own world and camera code (PyBullet TinyRenderer, the true camera
-of ``config/sim.yaml``), lets it settle, renders one frame and takes the ground truth from
+of ``config/sim.yaml``: lens distortion, blur, shot and read noise; ``--ideal-camera`` turns
+them off), lets it settle, renders one frame and takes the ground truth from
 the same world the sim node publishes ``/sim/ground_truth`` from. The detector sees the
 frame through its *calibrated* camera pose (``config/camera_calibration.yaml``), so the
 errors include the calibration's. Two situations per scene:
@@ -19,7 +20,8 @@ error (median, max) over every detected block, reprojection error, and detection
 per frame (pixels -> poses, rendering excluded). Latency is the fastest of ``--repeats``
 runs on the frame (wall time; on a shared machine the others measure other processes), and
 ``cpu_median_s`` is the process CPU time per frame. ``--compare`` adds rows for the other
-corner refinements and pose methods on the same frames.
+corner refinements and pose methods on the same frames, and a detector that ignores the
+lens distortion (``ignore d``: camera_info read as a pinhole's), to show what ``d`` is worth.
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ VARIANTS = {
     "none": {"refinement": "none"},
     "decimate 1.5": {"decimate": 1.5},
     "decimate 2": {"decimate": 2.0},
+    "ignore d": {"ignore_distortion": True},
 }
 
 
@@ -88,6 +91,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="detections per frame; the latency is the fastest (default 3)")
     parser.add_argument("--true-pose", action="store_true",
                         help="detect with the sim's true camera pose instead of the calibrated one")
+    parser.add_argument("--ideal-camera", action="store_true",
+                        help="sim: an ideal pinhole camera (no lens distortion, blur or noise) "
+                             "instead of config/sim.yaml's")
 
 
 def scene_for(seed: int, density: float) -> Scene:
@@ -103,9 +109,12 @@ def run(opts: argparse.Namespace) -> list[dict]:
     if opts.renderer == "sim":
         from nodes.detector.sim_frames import sim_frames
 
-        frames, true_pose = sim_frames(range(n_seeds), opts.density, opts.noise)
+        frames, true_pose, camera = sim_frames(range(n_seeds), opts.density, opts.noise,
+                                               opts.ideal_camera)
     else:
         frames, true_pose = synthetic_frames(range(n_seeds), opts.density, opts.noise)
+        camera = "synthetic"
+    print(f"camera: {camera}", flush=True)
     pose = true_pose if (opts.true_pose or opts.renderer == "synthetic") else \
         load_camera_pose(config_path("camera_calibration.yaml"))
     frames = list(frames)
@@ -116,8 +125,12 @@ def run(opts: argparse.Namespace) -> list[dict]:
         for name, overrides in variants.items():
             if situation != "parked" and name != "default":
                 continue
+            overrides = dict(overrides)
+            ignore_d = overrides.pop("ignore_distortion", False)
             config = dataclasses.replace(DetectorConfig(), **overrides)
-            rows.append(evaluate(chosen, config, pose, situation, opts.repeats))
+            row = evaluate(chosen, config, pose, situation, opts.repeats, ignore_d)
+            row["camera"] = camera + (" (detector ignores d)" if ignore_d else "")
+            rows.append(row)
     return rows
 
 
@@ -139,7 +152,7 @@ def synthetic_frames(seeds, density: float, noise: float | None):
 
 
 def evaluate(frames: list[Frame], config: DetectorConfig, pose: CameraPose,
-             situation: str, repeats: int = 1) -> dict:
+             situation: str, repeats: int = 1, ignore_distortion: bool = False) -> dict:
     pos, yaw, reproj, latency, cpu = [], [], [], [], []
     found = expected = false = 0
     hidden = hidden_reported = 0
@@ -151,7 +164,8 @@ def evaluate(frames: list[Frame], config: DetectorConfig, pose: CameraPose,
         for _ in range(max(1, repeats)):
             known = set(detector.seen)
             cpu0 = time.process_time()
-            result = detector.process(frame.image, frame.intrinsics, 2)
+            intrinsics = frame.intrinsics.pinhole() if ignore_distortion else frame.intrinsics
+            result = detector.process(frame.image, intrinsics, 2)
             runs.append((result.detect_s, time.process_time() - cpu0))
             detector.seen = known  # every repeat sees the same history
         latency.append(min(r[0] for r in runs))

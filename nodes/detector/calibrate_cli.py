@@ -1,24 +1,39 @@
 """``densepack-calibrate``: the overhead camera's pose in ``world`` from tags at known poses.
 
-Blocks stand at poses listed in a scene file (a tag board on the table, or blocks the robot
-placed): ``config/scenes/calibration.yaml`` by default, the same file the sim can load as
-its scene. The tool pools the tag corners of ``frames`` camera frames, solves the camera
-pose (PnP over all corners, Levenberg-Marquardt refined, outlier tags dropped), prints the
-residuals and uncertainties, and writes ``config/camera_calibration.yaml`` for the detector.
-It exits 0 on success, 1 when it saw too few tags or the residual is above ``max_rms_px``.
+Two modes (``mode``):
+
+* ``scene``: blocks stand at poses listed in a scene file (a tag board on the table):
+  ``config/scenes/calibration.yaml`` by default, the same file the sim can load as its
+  scene. The tool pools the tag corners of ``frames`` camera frames.
+* ``arm``: the arm itself sets one block down at ``arm.placements`` spread over the
+  workspace (``nodes.detector.arm_calibration``: it first re-grips the block with the
+  closing axis turned 90 degrees, so the block sits on the TCP), takes ``arm.frames`` frames
+  at each with the arm out of view, and pools those. It streams the executor's own step
+  scripts on ``/arm/cartesian_setpoint`` and ``/gripper/command`` (stamped on ROS time: run
+  it with ``use_sim_time:=true`` against the sim) and reads ``/tcp_pose`` and
+  ``/joint_states``; the current calibration (``calibration_file``) only finds the block.
+
+Both solve the camera pose through the lens of ``camera_info`` (PnP over all corners,
+Levenberg-Marquardt refined, outlier tags or placements dropped), print the residuals and
+uncertainties, and write ``config/camera_calibration.yaml`` for the detector. The tool exits
+0 on success, 1 when it saw too few tags, the routine failed or the residual is above
+``max_rms_px``.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import threading
 import time
 from dataclasses import dataclass
 
+from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, Image, JointState
+from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from msgs_py import MessageError, load_scene
@@ -27,22 +42,35 @@ from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
 from msgs_py.ros_codecs import stamp_to_ns
 from nodes.common.params import declare_config, describe_config, param
 from nodes.common.paths import config_path
-from nodes.common.qos import CAMERA
+from nodes.common.qos import CAMERA, RELIABLE
 from nodes.common.runner import split_ros_args
-from nodes.detector.calibration import CalibrationResult, calibrate_camera
-from nodes.detector.camera_model import save_camera_pose
-from nodes.detector.pipeline import to_gray
+from nodes.common.transforms import tool_down_quaternion
+from nodes.detector.arm_calibration import ArmCalibration, ArmRoutineConfig
+from nodes.detector.calibration import CalibrationResult, calibrate_camera, calibrate_views
+from nodes.detector.camera_model import load_camera_pose, save_camera_pose
+from nodes.detector.config import DetectorConfig
+from nodes.detector.pipeline import BlockDetector, to_gray
 from nodes.detector.sync import StampPairer
 from nodes.detector.tags import REFINEMENTS, FinderSettings, TagFinder
+from nodes.executor.node import FINGER_JOINTS, tool_pose_from_msg
+from nodes.sim.messages import pose_stamped_msg
+
+MODES = ("scene", "arm")
 
 
 @dataclass(frozen=True)
 class CalibrateConfig:
+    mode: str = param("scene", "scene: blocks stand at the poses of known_poses_file; arm: "
+                      "the arm sets one block down at arm.placements")
     known_poses_file: str = param(
-        "scenes/calibration.yaml", "scene file whose blocks stand at known poses (relative "
-        "paths are under config/)")
-    frames: int = param(10, "camera frames whose tag corners are pooled")
-    timeout_s: float = param(60.0, "give up if the frames have not arrived by then", unit="s")
+        "scenes/calibration.yaml", "scene mode: scene file whose blocks stand at known poses "
+        "(relative paths are under config/)")
+    frames: int = param(10, "scene mode: camera frames whose tag corners are pooled")
+    timeout_s: float = param(60.0, "scene mode: give up if the frames have not arrived by "
+                             "then (arm mode: arm.timeout_s)", unit="s")
+    calibration_file: str = param(
+        "camera_calibration.yaml", "arm mode: the current calibration, which finds the block "
+        "(relative paths are under config/)")
     output_file: str = param("camera_calibration.yaml", "calibration file written (relative "
                              "paths are under config/)")
     max_rms_px: float = param(0.5, "refuse to write a result whose RMS residual is above this",
@@ -55,6 +83,8 @@ class CalibrateConfig:
                           "instead of waiting for the camera's own rate")
 
     def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"parameter 'mode': '{self.mode}' is not one of {list(MODES)}")
         if self.frames < 1:
             raise ValueError("parameter 'frames': must be >= 1")
         if self.refinement not in REFINEMENTS:
@@ -63,32 +93,62 @@ class CalibrateConfig:
 
 
 class CalibrateNode(Node):
-    """Collects ``frames`` frames of tag detections; ``solve()`` turns them into a pose."""
+    """Collects frames of tag detections (scene mode: ``frames`` of them; arm mode: the
+    routine's); ``solve()`` turns them into a pose."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__("calibrate", **kwargs)
         self.config = declare_config(self, CalibrateConfig)
-        scene = load_scene(config_path(self.config.known_poses_file))
-        self.known = {b.id: b for b in scene.blocks}
+        self.arm_config = declare_config(self, ArmRoutineConfig, "arm.")
+        self.arm = self.config.mode == "arm"
         self.finder = TagFinder(FinderSettings(self.config.refinement))
         self.pairer = StampPairer()
         self.frames: list[list] = []
         self.intrinsics = None
         self.done = threading.Event()
         self.problems: list[str] = []
+        self.lock = threading.Lock()
         group = MutuallyExclusiveCallbackGroup()
         self.create_subscription(Image, "/camera/image_raw", self.on_image, CAMERA,
                                  callback_group=group)
         self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, CAMERA,
                                  callback_group=group)
         self.trigger_client = self.create_client(Trigger, "/camera/trigger") \
-            if self.config.trigger else None
+            if self.config.trigger or self.arm else None
+        if self.arm:
+            self._start_arm()
+            return
+        scene = load_scene(config_path(self.config.known_poses_file))
+        self.known = {b.id: b for b in scene.blocks}
         if self.trigger_client is not None:
             self.create_timer(0.5, self.request_frame)
         self.get_logger().info(
             f"calibrating from {len(self.known)} known blocks in "
             f"{config_path(self.config.known_poses_file)}; waiting for "
             f"{self.config.frames} frames")
+
+    def _start_arm(self) -> None:
+        """Arm mode: the routine, the current calibration to find the block with, and the
+        executor's topics."""
+        executor = self.arm_config.executor_config()
+        self.routine = ArmCalibration(self.arm_config, executor)
+        pose = load_camera_pose(config_path(self.config.calibration_file))
+        self.detector = BlockDetector(DetectorConfig(
+            refinement=self.config.refinement, block_size=self.config.block_size,
+            tag_size=self.config.tag_size), pose)
+        self.setpoint_pub = self.create_publisher(PoseStamped, "/arm/cartesian_setpoint",
+                                                  RELIABLE)
+        self.gripper_pub = self.create_publisher(Float64, "/gripper/command", RELIABLE)
+        arm_group = MutuallyExclusiveCallbackGroup()  # never waits for a detection
+        self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE,
+                                 callback_group=arm_group)
+        self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE,
+                                 callback_group=arm_group)
+        self.create_timer(1.0 / executor.rate_hz, self.on_tick, callback_group=arm_group)
+        self.get_logger().info(
+            f"arm calibration: one block at {len(self.arm_config.poses)} placements, "
+            f"{self.arm_config.frames} frames each; the block is found with "
+            f"{config_path(self.config.calibration_file)}")
 
     def request_frame(self) -> None:
         if not self.done.is_set() and self.trigger_client.service_is_ready():
@@ -117,13 +177,73 @@ class CalibrateNode(Node):
         if self.intrinsics is not None and intrinsics != self.intrinsics:
             self.get_logger().warning("camera_info changed during calibration: starting over")
             self.frames.clear()
+            if self.arm:
+                self.problems.append("camera_info changed during the routine")
+                self.done.set()
+                return
         self.intrinsics = intrinsics
+        if self.arm:
+            seen = self.detector.process(pixels, intrinsics, stamp_ns, image_msg.encoding)
+            with self.lock:
+                self.routine.on_frame(stamp_ns * 1e-9, seen.detections, seen.blocks.by_id())
+            return
         self.frames.append(self.finder.find(to_gray(pixels, image_msg.encoding)))
         if len(self.frames) >= self.config.frames:
             self.done.set()
 
+    # --- arm mode ---------------------------------------------------------------------------
+    def on_tcp(self, msg: PoseStamped) -> None:
+        try:
+            pose = tool_pose_from_msg(msg)
+        except ValueError as err:
+            self.get_logger().warning(f"ignoring a malformed /tcp_pose: {err}")
+            return
+        with self.lock:
+            self.routine.on_tcp(pose, stamp_to_ns(msg.header.stamp) * 1e-9 or None)
+
+    def on_joints(self, msg: JointState) -> None:
+        """The pads' gap: the sum of the two finger joints (docs/contracts.md)."""
+        try:
+            gap = sum(msg.position[msg.name.index(n)] for n in FINGER_JOINTS)
+        except (ValueError, IndexError):
+            return
+        if math.isfinite(gap):
+            with self.lock:
+                self.routine.on_finger_gap(float(gap), stamp_to_ns(msg.header.stamp) * 1e-9)
+
+    def on_tick(self) -> None:
+        now = self.get_clock().now()
+        with self.lock:
+            out = self.routine.tick(now.nanoseconds * 1e-9)
+            finished = self.routine.finished
+        for line in out.log:
+            self.get_logger().info(line)
+        if out.setpoint is not None:
+            q = tool_down_quaternion(out.setpoint.yaw)
+            p = out.setpoint
+            self.setpoint_pub.publish(pose_stamped_msg(now.to_msg(), (p.x, p.y, p.z), q))
+        if out.gripper is not None:
+            self.gripper_pub.publish(Float64(data=float(out.gripper)))
+        if out.want_frame and self.trigger_client.service_is_ready():
+            self.trigger_client.call_async(Trigger.Request())
+        if finished:
+            self.done.set()
+
+    # --- results ----------------------------------------------------------------------------
     def solve(self) -> CalibrationResult:
-        """Raises ValueError when no frame arrived or too few known tags were seen."""
+        """Raises ValueError when no frame arrived, the routine failed or too few known tags
+        (placements) were seen."""
+        if self.arm:
+            with self.lock:
+                routine = self.routine
+                if routine.error:
+                    raise ValueError(f"the arm routine failed: {routine.error}")
+                if not routine.finished:
+                    raise ValueError(f"the arm routine did not finish (at {routine.phase.value}"
+                                     f", {len(routine.views())} frames)")
+                views = routine.views()
+            return calibrate_views(views, self.intrinsics, self.config.block_size,
+                                   self.config.tag_size, group_by="placement")
         if not self.frames or self.intrinsics is None:
             raise ValueError("no camera frame arrived on /camera/image_raw + camera_info"
                              + (f" ({self.problems[-1]})" if self.problems else ""))
@@ -132,23 +252,28 @@ class CalibrateNode(Node):
 
     def write(self, result: CalibrationResult) -> str:
         path = config_path(self.config.output_file)
-        source = (f"from the tags of {len(self.known)} blocks at the poses of "
-                  f"{self.config.known_poses_file}:\n")
+        if self.arm:
+            placed = sum(1 for p in self.routine.placements if p.views)
+            source = (f"from one block the arm set down at {placed} placements (mode arm):\n"
+                      + self.routine.report() + "\n")
+        else:
+            source = (f"from the tags of {len(self.known)} blocks at the poses of "
+                      f"{self.config.known_poses_file}:\n")
         save_camera_pose(path, result.camera.pose, comment=source + result.report())
         return str(path)
 
 
 def main(args=None) -> int:
     import rclpy
-    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
 
     argv = list(sys.argv if args is None else ["densepack-calibrate", *args])
     user_args, ros_argv = split_ros_args(argv)
-    rows = describe_config(CalibrateConfig)
+    rows = describe_config(CalibrateConfig) + describe_config(ArmRoutineConfig, "arm.")
     parser = argparse.ArgumentParser(
         prog="densepack-calibrate", formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(__doc__ or "").strip() + "\n\nparameters (--ros-args -p NAME:=VALUE):\n"
-        + "\n".join(f"  {r['name']:<18} {r['default']}{' [' + r['unit'] + ']' if r['unit'] else ''}"
+        + "\n".join(f"  {r['name']:<22} {r['default']}{' [' + r['unit'] + ']' if r['unit'] else ''}"
                     f"  {r['description']}" for r in rows))
     parser.add_argument("--dry-run", action="store_true",
                         help="print the result, do not write the calibration file")
@@ -157,12 +282,19 @@ def main(args=None) -> int:
     node = None
     try:
         node = CalibrateNode()
-        executor = MultiThreadedExecutor(num_threads=2)
+        # One thread: a MultiThreadedExecutor's spin_once returns while the callback it
+        # started still runs, so a spin_once loop can spin at 100 % CPU and starve the
+        # callbacks (the arm routine's setpoint stream, which paces the sim). The routine
+        # takes frames only with the arm at rest, so a detection never delays a motion.
+        executor = SingleThreadedExecutor()
         executor.add_node(node)
-        deadline = time.monotonic() + node.config.timeout_s
+        deadline = time.monotonic() + (node.arm_config.timeout_s if node.arm
+                                       else node.config.timeout_s)
         while rclpy.ok() and not node.done.is_set() and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.1)
         result = node.solve()
+        if node.arm:
+            print(node.routine.report(), flush=True)
         print(result.report(), flush=True)
         if result.rms_px > node.config.max_rms_px:
             print(f"densepack-calibrate: RMS residual {result.rms_px:.3f} px is above "

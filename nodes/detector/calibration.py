@@ -2,10 +2,14 @@
 
 Every tag corner of a block at a known pose is a known world point (z = block size). All
 corners of all frames go into one PnP problem (planar IPPE for a start, then
-Levenberg-Marquardt on the reprojection error). Tags that disagree with the consensus (a
-block not where the list says) are dropped and the pose solved again. The residual per
-tag and overall is reported, with the pose's standard deviations from the Gauss-Newton
-covariance, so a user can judge the result before the detector relies on it.
+Levenberg-Marquardt on the reprojection error, through the lens's plumb_bob distortion of
+``intrinsics.d``: the corners are used where they are measured). A *group* of corners is
+one tag at one known pose: a tag of a board (``calibrate_camera``), or the one block the
+arm sets down at several places (``calibrate_views`` with one ``placement`` per place).
+Groups that disagree with the consensus (a block not where the list says) are dropped and
+the pose solved again. The residual per group and overall is reported, with the pose's
+standard deviations from the Gauss-Newton covariance, so a user can judge the result
+before the detector relies on it.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import numpy as np
 
 from msgs_py import BlockPose
 from msgs_py.camera import CameraIntrinsics
-from nodes.detector.camera_model import CameraModel
+from nodes.detector.camera_model import CameraModel, camera_matrix, dist_coeffs
 from nodes.detector.tag_geometry import BLOCK_SIZE, TAG_SIZE, tag_corners_world
 from nodes.detector.tags import TagDetection
 
@@ -42,6 +46,7 @@ class CalibrationResult:
     position_sigma_m: tuple[float, float, float] = (math.nan,) * 3
     rotation_sigma_deg: float = math.nan
     unknown_tags: tuple[int, ...] = field(default=())
+    group_name: str = "tag"  #: what ``per_tag_px`` and ``dropped_tags`` count: tag, placement
 
     def report(self) -> str:
         p = self.camera.position
@@ -54,8 +59,10 @@ class CalibrationResult:
                 f"{v:.6f}" for v in self.camera.pose.orientation_xyzw) + "] "
             f"(1-sigma {self.rotation_sigma_deg:.4f} deg)",
             f"reprojection residual: RMS {self.rms_px:.3f} px, max {self.max_px:.3f} px over "
-            f"{self.n_points} corners of {len(self.per_tag_px)} tags in {self.n_frames} frames",
-            "worst tags (RMS px): " + ", ".join(f"{i}: {e:.3f}" for i, e in worst),
+            f"{self.n_points} corners of {len(self.per_tag_px)} {self.group_name}s in "
+            f"{self.n_frames} frames",
+            f"worst {self.group_name}s (RMS px): " + ", ".join(
+                f"{i}: {e:.3f}" for i, e in worst),
         ]
         if self.dropped_tags:
             lines.append(f"dropped as outliers: {list(self.dropped_tags)}")
@@ -64,28 +71,44 @@ class CalibrationResult:
         return "\n".join(lines)
 
 
-def correspondences(frames: Iterable[Sequence[TagDetection]], known: Mapping[int, BlockPose],
-                    block_size: float = BLOCK_SIZE, tag_size: float = TAG_SIZE):
-    """(world points N x 3, image points N x 2, tag id per point, unknown ids, n frames)."""
-    world, image, ids, unknown = [], [], [], set()
+@dataclass(frozen=True)
+class View:
+    """One frame's tag detections and the known poses of its blocks. Frames of one
+    arrangement share a ``placement`` number."""
+
+    detections: Sequence[TagDetection]
+    known: Mapping[int, BlockPose]
+    placement: int = 0
+
+
+GROUP_BY = ("tag", "placement")
+
+
+def correspondences(views: Iterable[View], block_size: float = BLOCK_SIZE,
+                    tag_size: float = TAG_SIZE, group_by: str = "tag"):
+    """(world points N x 3, image points N x 2, group per point, unknown ids, n frames);
+    a point's group is its tag id (``group_by="tag"``) or its view's placement."""
+    if group_by not in GROUP_BY:
+        raise ValueError(f"group_by must be one of {GROUP_BY}, got {group_by!r}")
+    world, image, groups, unknown = [], [], [], set()
     n_frames = 0
-    for detections in frames:
+    for view in views:
         n_frames += 1
         counts: dict[int, int] = {}
-        for det in detections:
+        for det in view.detections:
             counts[det.tag_id] = counts.get(det.tag_id, 0) + 1
-        for det in detections:
-            if det.tag_id not in known:
+        for det in view.detections:
+            if det.tag_id not in view.known:
                 unknown.add(det.tag_id)
                 continue
             if counts[det.tag_id] > 1:  # ambiguous in this frame
                 continue
-            world.append(tag_corners_world(known[det.tag_id], block_size, tag_size))
+            world.append(tag_corners_world(view.known[det.tag_id], block_size, tag_size))
             image.append(np.asarray(det.corners, dtype=float).reshape(4, 2))
-            ids += [det.tag_id] * 4
+            groups += [det.tag_id if group_by == "tag" else view.placement] * 4
     if not world:
         return np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0, int), sorted(unknown), n_frames
-    return (np.vstack(world), np.vstack(image), np.asarray(ids), sorted(unknown), n_frames)
+    return (np.vstack(world), np.vstack(image), np.asarray(groups), sorted(unknown), n_frames)
 
 
 def calibrate_camera(frames: Iterable[Sequence[TagDetection]], intrinsics: CameraIntrinsics,
@@ -96,13 +119,26 @@ def calibrate_camera(frames: Iterable[Sequence[TagDetection]], intrinsics: Camer
     Raises:
         ValueError: fewer than MIN_TAGS known tags were seen, or PnP failed.
     """
-    world, image, ids, unknown, n_frames = correspondences(frames, known, block_size,
-                                                           tag_size)
+    return calibrate_views([View(f, known) for f in frames], intrinsics, block_size,
+                           tag_size, group_by="tag")
+
+
+def calibrate_views(views: Iterable[View], intrinsics: CameraIntrinsics,
+                    block_size: float = BLOCK_SIZE, tag_size: float = TAG_SIZE,
+                    group_by: str = "tag") -> CalibrationResult:
+    """Solve the camera pose from views whose blocks stand at known poses; residuals and
+    outliers per tag or per placement (``group_by``).
+
+    Raises:
+        ValueError: fewer than MIN_TAGS groups were seen, or PnP failed.
+    """
+    world, image, ids, unknown, n_frames = correspondences(views, block_size, tag_size,
+                                                           group_by)
     dropped: list[int] = []
     while True:
         tags = sorted(set(ids.tolist()))
         if len(tags) < MIN_TAGS:
-            raise ValueError(f"need tags of at least {MIN_TAGS} known blocks, saw {len(tags)}"
+            raise ValueError(f"need at least {MIN_TAGS} known {group_by}s, saw {len(tags)}"
                              f" ({tags}); unknown ids seen: {unknown}")
         rvec, tvec = _solve(world, image, intrinsics)
         residual = _residuals(world, image, intrinsics, rvec, tvec)
@@ -121,33 +157,33 @@ def calibrate_camera(frames: Iterable[Sequence[TagDetection]], intrinsics: Camer
         camera=camera, rms_px=float(np.sqrt(np.mean(residual**2))),
         max_px=float(residual.max()), per_tag_px=per_tag, n_frames=n_frames,
         n_points=len(world), dropped_tags=tuple(dropped), position_sigma_m=sigma_p,
-        rotation_sigma_deg=sigma_r, unknown_tags=tuple(unknown))
+        rotation_sigma_deg=sigma_r, unknown_tags=tuple(unknown), group_name=group_by)
 
 
 def _solve(world: np.ndarray, image: np.ndarray, intrinsics: CameraIntrinsics):
-    k = np.array(intrinsics.k, dtype=float).reshape(3, 3)
+    k, dist = camera_matrix(intrinsics), dist_coeffs(intrinsics)
     obj = world.reshape(-1, 1, 3).astype(np.float64)
     img = image.reshape(-1, 1, 2).astype(np.float64)
     planar = np.ptp(world[:, 2]) < 1e-9
-    ok, rvec, tvec = cv2.solvePnP(obj, img, k, None,
+    ok, rvec, tvec = cv2.solvePnP(obj, img, k, dist,
                                   flags=cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP)
     if not ok:
         raise ValueError("PnP found no camera pose for these correspondences")
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12)
-    rvec, tvec = cv2.solvePnPRefineLM(obj, img, k, None, rvec, tvec, criteria)
+    rvec, tvec = cv2.solvePnPRefineLM(obj, img, k, dist, rvec, tvec, criteria)
     return rvec.reshape(3), tvec.reshape(3)
 
 
 def _residuals(world, image, intrinsics, rvec, tvec) -> np.ndarray:
-    k = np.array(intrinsics.k, dtype=float).reshape(3, 3)
-    projected, _ = cv2.projectPoints(world.astype(np.float64), rvec, tvec, k, None)
+    projected, _ = cv2.projectPoints(world.astype(np.float64), rvec, tvec,
+                                     camera_matrix(intrinsics), dist_coeffs(intrinsics))
     return np.linalg.norm(projected.reshape(-1, 2) - image, axis=1)
 
 
 def _uncertainty(world, intrinsics, rvec, tvec, residual):
     """1-sigma camera position (m, world axes) and rotation (deg) from J^T J."""
-    k = np.array(intrinsics.k, dtype=float).reshape(3, 3)
-    _, jac = cv2.projectPoints(world.astype(np.float64), rvec, tvec, k, None)
+    _, jac = cv2.projectPoints(world.astype(np.float64), rvec, tvec,
+                               camera_matrix(intrinsics), dist_coeffs(intrinsics))
     j = jac[:, :6]  # d(u, v) / d(rvec, tvec)
     dof = max(2 * len(world) - 6, 1)
     sigma2 = float(np.sum(residual**2)) / dof

@@ -1,7 +1,11 @@
-"""A calibrated pinhole camera: project world points, cast pixel rays onto a plane.
+"""A calibrated camera: project world points, cast pixel rays onto a plane.
 
 The camera pose is that of ``camera_optical_frame`` in ``world`` (z forward, x right,
-y down); intrinsics follow OpenCV (pixel centres at integer coordinates). The calibration
+y down); intrinsics follow OpenCV (pixel centres at integer coordinates), with the lens's
+plumb_bob distortion ``intrinsics.d``: ``project`` gives where a point is *imaged* (distorted
+pixels, what the detector measures), ``undistort`` maps measured pixels to the ideal
+pinhole pixels of the same camera, and ``rays`` / ``intersect_plane_z`` take measured
+pixels (they undistort first). With ``d`` all zero every step is the pinhole's. The calibration
 file is ROS ``--params-file`` YAML with ``camera_pose.position`` and
 ``camera_pose.orientation_xyzw``, read by the detector and written by densepack-calibrate.
 """
@@ -17,12 +21,14 @@ import numpy as np
 
 from msgs_py import MessageError
 from msgs_py.camera import CameraIntrinsics, CameraPose
+from nodes.common.lens import camera_matrix, distort_normalized, undistort_pixels
 from nodes.common.params import read_params_file
 from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
 
 
-def camera_matrix(intrinsics: CameraIntrinsics) -> np.ndarray:
-    return np.array(intrinsics.k, dtype=float).reshape(3, 3)
+def dist_coeffs(intrinsics: CameraIntrinsics) -> np.ndarray | None:
+    """OpenCV's distortion vector (k1, k2, p1, p2, k3), or None for an ideal lens."""
+    return np.array(intrinsics.d, dtype=float) if intrinsics.distorted else None
 
 
 @dataclass(frozen=True)
@@ -51,6 +57,19 @@ class CameraModel:
         return camera_matrix(self.intrinsics)
 
     @property
+    def dist(self) -> np.ndarray | None:
+        """OpenCV's distortion vector, None for an ideal lens."""
+        return dist_coeffs(self.intrinsics)
+
+    def pinhole(self) -> CameraModel:
+        """This camera with an ideal lens (what ``undistort``'s pixels are pixels of)."""
+        return CameraModel(self.intrinsics.pinhole(), self.rotation, self.position)
+
+    def undistort(self, pixels: np.ndarray) -> np.ndarray:
+        """Measured pixels (N x 2) -> ideal pinhole pixels."""
+        return undistort_pixels(pixels, self.intrinsics)
+
+    @property
     def pose(self) -> CameraPose:
         quat = matrix_to_quaternion(self.rotation)
         return CameraPose(tuple(float(v) for v in self.position),
@@ -66,17 +85,20 @@ class CameraModel:
         return (np.asarray(points_world, dtype=float) - self.position) @ self.rotation
 
     def project(self, points_world: np.ndarray) -> np.ndarray:
-        """World points (N x 3, m) -> pixels (N x 2); points behind the camera give NaN."""
+        """World points (N x 3, m) -> imaged pixels (N x 2, distorted by the lens); points
+        behind the camera give NaN."""
         pc = self.to_camera(points_world)
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.where(pc[:, 2] > 0.0, pc[:, 2], np.nan)
-            u = self.intrinsics.fx * pc[:, 0] / z + self.intrinsics.cx
-            v = self.intrinsics.fy * pc[:, 1] / z + self.intrinsics.cy
-        return np.column_stack([u, v])
+            xy = pc[:, :2] / z[:, None]
+        if self.intrinsics.distorted:
+            xy = distort_normalized(xy, self.intrinsics.d)
+        i = self.intrinsics
+        return np.column_stack([i.fx * xy[:, 0] + i.cx, i.fy * xy[:, 1] + i.cy])
 
     def rays(self, pixels: np.ndarray) -> np.ndarray:
-        """Unit-free ray directions in world (N x 3) through pixel coordinates (N x 2)."""
-        px = np.asarray(pixels, dtype=float).reshape(-1, 2)
+        """Unit-free ray directions in world (N x 3) through measured pixels (N x 2)."""
+        px = self.undistort(pixels)
         d_cam = np.column_stack([
             (px[:, 0] - self.intrinsics.cx) / self.intrinsics.fx,
             (px[:, 1] - self.intrinsics.cy) / self.intrinsics.fy,
@@ -85,7 +107,7 @@ class CameraModel:
         return d_cam @ self.rotation.T
 
     def intersect_plane_z(self, pixels: np.ndarray, z: float) -> np.ndarray:
-        """Where the pixels' rays meet the horizontal plane at height ``z`` (N x 3, m).
+        """Where the measured pixels' rays meet the horizontal plane at height ``z`` (N x 3, m).
 
         Rays parallel to or pointing away from the plane give NaN.
         """

@@ -8,8 +8,12 @@
 * ``pnp``: a free 6-DoF pose per tag (OpenCV SQPnP, LM-polished), the way a generic tag detector
   does it; x, y are the tag centre, theta the yaw of its x axis. Kept to compare against.
 
-Both report the RMS reprojection error (px) of the model they fitted; with ``plane`` it
-also grows when a tag is not where a resting block's tag can be (a lifted or tipped block).
+Both take the corners as measured on the (distorted) image and undistort them with the
+camera's plumb_bob ``d`` first (``CameraModel.rays`` / ``undistort``): the tag's edges are
+fitted where they are imaged, and only the four corners are mapped to the ideal pinhole.
+Both report the RMS reprojection error (px) of the model they fitted, on the measured
+image; with ``plane`` it also grows when a tag is not where a resting block's tag can be
+(a lifted or tipped block).
 """
 
 from __future__ import annotations
@@ -67,7 +71,7 @@ def estimate_pnp(camera: CameraModel, corners: np.ndarray,
     """Free 6-DoF tag pose (IPPE_SQUARE); the block pose is the tag centre and x-axis yaw."""
     local = TAG_CORNERS_LOCAL * (tag_size / TAG_SIZE)
     object_pts = np.column_stack([local, np.zeros(4)])
-    image_pts = np.asarray(corners, dtype=np.float64).reshape(4, 1, 2)
+    image_pts = camera.undistort(corners).reshape(4, 1, 2)
     # SQPnP is a global solver; IPPE_SQUARE, the usual choice for a square, is inexact
     # near fronto-parallel views (an overhead camera's normal case) even after LM.
     ok, rvec, tvec = cv2.solvePnP(object_pts, image_pts, camera.k, None,
@@ -75,7 +79,7 @@ def estimate_pnp(camera: CameraModel, corners: np.ndarray,
     if not ok:
         return PoseEstimate(math.nan, math.nan, math.nan, math.inf)
     rvec, tvec = cv2.solvePnPRefineLM(object_pts, image_pts, camera.k, None, rvec, tvec)
-    projected, _ = cv2.projectPoints(object_pts, rvec, tvec, camera.k, None)
+    projected, _ = cv2.projectPoints(object_pts, rvec, tvec, camera.k, camera.dist)
     error = _rms(projected.reshape(4, 2), corners)
     r_ct, _ = cv2.Rodrigues(rvec)
     r_wt = camera.rotation @ r_ct

@@ -24,14 +24,19 @@ SETTLE_S = 0.25  # physics time before the first frame, s
 ARM_HOVER_Z = 0.10  # TCP height over the block the arm hides, m
 
 
-def sim_frames(seeds, density: float, noise: float | None):
-    """(frames iterator, true camera pose) for the given seeds."""
+def sim_frames(seeds, density: float, noise: float | None, ideal_camera: bool = False):
+    """(frames iterator, true camera pose, camera description) for the given seeds; the
+    camera of config/sim.yaml, or with ``ideal_camera`` the same one as an ideal pinhole
+    (no lens distortion, blur or noise)."""
     from nodes.common.transforms import pose_matrix
     from nodes.sim.config import load_sim_configs
     from nodes.sim.kinematics import solve_tcp_ik
     from nodes.sim.world import SimWorld
 
     sim_config, camera_config, _ = load_sim_configs()
+    if ideal_camera:
+        camera_config = dataclasses.replace(camera_config, distortion=(0.0,) * 5,
+                                            blur_sigma_px=0.0, full_well_e=0.0, noise_std=0.0)
     camera = camera_config.model()
     noise_std = camera_config.noise_std if noise is None else noise
     intrinsics = camera.intrinsics
@@ -65,7 +70,11 @@ def sim_frames(seeds, density: float, noise: float | None):
             finally:
                 world.close()
 
-    return frames(), true_pose
+    c = camera_config
+    shot = f"full well {c.full_well_e:g} e-" if c.full_well_e else "off"
+    description = (f"d {list(c.distortion)}, blur {c.blur_sigma_px} px, shot noise {shot}, "
+                   f"read noise {noise_std} grey")
+    return frames(), true_pose, description
 
 
 def _fully_visible(world, camera, truth) -> set[int]:

@@ -4,7 +4,9 @@ Tests and the detector's own tuning need images whose truth is exact. Each block
 (white, with its 36h11 tag centred) is warped into the image through the plane homography
 of the face; the cube's sides are its projected silhouette. Rendering happens on a
 ``supersample``-times finer canvas that is then area-averaged, so edges are anti-aliased
-the way a real sensor integrates light; blur and Gaussian noise are optional.
+the way a real sensor integrates light; blur and Gaussian noise are optional. A camera with
+lens distortion (``intrinsics.d``) is rendered as the sim does it: the ideal image on a
+larger canvas, warped through the lens (``nodes.common.lens.lens_warp``).
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ import cv2
 import numpy as np
 
 from msgs_py import BlockPose
-from msgs_py.camera import CameraIntrinsics, CameraPose
+from msgs_py.camera import NO_DISTORTION, CameraIntrinsics, CameraPose
+from nodes.common.lens import lens_warp
 from nodes.common.transforms import matrix_to_quaternion
 from nodes.detector.camera_model import CameraModel
 from nodes.detector.tag_geometry import BLOCK_SIZE, TAG_SIZE, local_to_world_xy
@@ -30,14 +33,16 @@ _CUBE_LOCAL = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
 def overhead_camera(
     width: int = 1280, height: int = 960, focal_px: float = 1100.0,
     center_xy: tuple[float, float] = (0.70, 0.0), height_m: float = 1.25,
+    distortion: tuple[float, ...] = NO_DISTORTION,
 ) -> CameraModel:
-    """The cell's overhead camera looking straight down (docs/contracts.md geometry).
+    """The cell's overhead camera looking straight down (docs/contracts.md geometry), with
+    plumb_bob ``distortion`` (k1, k2, p1, p2, k3).
 
     The image's long side runs along world y, image up is world +x: camera x = -world y,
     camera y = -world x, camera z = -world z.
     """
     intrinsics = CameraIntrinsics(width, height, focal_px, focal_px,
-                                  (width - 1) / 2.0, (height - 1) / 2.0)
+                                  (width - 1) / 2.0, (height - 1) / 2.0, distortion)
     rot = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
     pose = CameraPose((center_xy[0], center_xy[1], height_m),
                       tuple(float(v) for v in matrix_to_quaternion(rot)))
@@ -88,7 +93,9 @@ def render_blocks(
             arm between the camera and the blocks.
     """
     k = style.supersample
-    fine = CameraModel(camera.intrinsics.scaled(k), camera.rotation, camera.position)
+    warp = lens_warp(camera.intrinsics) if camera.intrinsics.distorted else None
+    ideal = warp.canvas if warp is not None else camera.intrinsics
+    fine = CameraModel(ideal.scaled(k), camera.rotation, camera.position)
     w, h = fine.intrinsics.width, fine.intrinsics.height
     canvas = np.full((h, w), style.table, np.float32)
     half = 0.5 * block_size
@@ -103,8 +110,9 @@ def render_blocks(
     for poly in occluders:
         pts = _fixed_point(fine.project(np.asarray(poly, dtype=float)))
         cv2.fillConvexPoly(canvas, pts, style.occluder, lineType=cv2.LINE_8, shift=4)
-    image = cv2.resize(canvas, (camera.intrinsics.width, camera.intrinsics.height),
-                       interpolation=cv2.INTER_AREA)
+    image = cv2.resize(canvas, (ideal.width, ideal.height), interpolation=cv2.INTER_AREA)
+    if warp is not None:
+        image = warp.apply(image)
     if style.blur_sigma_px > 0.0:
         image = cv2.GaussianBlur(image, (0, 0), style.blur_sigma_px)
     if style.noise_std > 0.0:

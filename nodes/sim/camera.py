@@ -7,16 +7,33 @@ NDC x = -1 + 2 i / W and image row r (top first) at NDC y = 1 - 2 (r + 1) / H (i
 bottom-up at integer positions, then flips the rows), so ``projection_matrix`` places the
 principal point accordingly; the camera test checks that a tag's projected centre lands on
 the predicted pixel (measured bias < 0.1 px).
+
+A real camera is not a pinhole with perfect pixels, so ``render_rgb`` images the scene the
+way one does (values and their sources: sim_assets/README.md):
+
+1. lens distortion (plumb_bob ``distortion``): TinyRenderer only renders pinhole images, so
+   the ideal image is rendered on a canvas large enough to hold every ideal pixel the lens
+   brings into view, then warped into the distorted image (``nodes.common.lens``);
+2. blur (``blur_sigma_px``): a Gaussian point spread of lens, diffraction and pixel area;
+3. noise: photon shot noise (``full_well_e``: variance grows with the signal) plus a
+   signal-independent read noise (``noise_std``), rounded to 8 bits.
+
+Everything random comes from the caller's generator (the sim's ``seed``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 
-from msgs_py.camera import CameraIntrinsics
+from msgs_py.camera import NO_DISTORTION, CameraIntrinsics
+from nodes.common.lens import distort_pixels, lens_warp, undistort_pixels
 from nodes.common.transforms import quaternion_to_matrix
+
+#: Grey level of the full well: a saturated pixel reads 255.
+FULL_SCALE_DN = 255.0
 
 #: Optical frame -> OpenGL camera frame (y and z flipped).
 OPTICAL_TO_GL = np.diag([1.0, -1.0, -1.0])
@@ -34,6 +51,9 @@ class SimCamera:
     orientation_xyzw: tuple[float, float, float, float]  #: optical frame in world
     near: float = 0.1
     far: float = 3.0
+    distortion: tuple[float, ...] = NO_DISTORTION  #: plumb_bob k1, k2, p1, p2, k3
+    blur_sigma_px: float = 0.0  #: Gaussian point-spread sigma, px
+    full_well_e: float = 0.0  #: electrons at full scale (255); 0 = no shot noise
 
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
@@ -42,6 +62,10 @@ class SimCamera:
             raise ValueError(f"focal lengths fx={self.fx}, fy={self.fy} must be positive")
         if not 0 < self.near < self.far:
             raise ValueError(f"need 0 < near < far, got {self.near}, {self.far}")
+        if not self.blur_sigma_px >= 0.0 or not self.full_well_e >= 0.0:
+            raise ValueError("blur_sigma_px and full_well_e must be >= 0")
+        object.__setattr__(self, "distortion", tuple(float(v) for v in self.distortion))
+        self.intrinsics  # noqa: B018 - validates the distortion (raises MessageError)
 
     @property
     def rotation(self) -> np.ndarray:
@@ -51,7 +75,8 @@ class SimCamera:
     @property
     def intrinsics(self) -> CameraIntrinsics:
         """What ``sensor_msgs/CameraInfo`` publishes of this camera."""
-        return CameraIntrinsics(self.width, self.height, self.fx, self.fy, self.cx, self.cy)
+        return CameraIntrinsics(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
+                                self.distortion)
 
     @property
     def k(self) -> np.ndarray:
@@ -79,7 +104,11 @@ class SimCamera:
         return proj.T.reshape(-1).tolist()
 
     def project(self, points_world) -> np.ndarray:
-        """(N, 3) world points -> (N, 2) pixel coordinates (u, v)."""
+        """(N, 3) world points -> (N, 2) pixel coordinates (u, v) where the lens images them."""
+        return distort_pixels(self.project_ideal(points_world), self.intrinsics)
+
+    def project_ideal(self, points_world) -> np.ndarray:
+        """(N, 3) world points -> (N, 2) pinhole pixel coordinates (no lens distortion)."""
         pts = np.atleast_2d(np.asarray(points_world, dtype=float))
         cam = (pts - np.asarray(self.position)) @ self.rotation  # R^T (p - t), row-wise
         uv = cam[:, :2] / cam[:, 2:3]
@@ -87,8 +116,9 @@ class SimCamera:
 
     def ground_footprint(self, z: float = 0.0) -> np.ndarray:
         """(4, 2) world x, y of the image corners' rays hitting the plane at height z."""
-        corners = np.array([[0, 0], [self.width - 1, 0], [self.width - 1, self.height - 1],
-                            [0, self.height - 1]], dtype=float)
+        corners = undistort_pixels(np.array(
+            [[0, 0], [self.width - 1, 0], [self.width - 1, self.height - 1],
+             [0, self.height - 1]], dtype=float), self.intrinsics)
         rays = np.column_stack([(corners[:, 0] - self.cx) / self.fx,
                                 (corners[:, 1] - self.cy) / self.fy, np.ones(4)])
         rays_w = rays @ self.rotation.T
@@ -103,18 +133,44 @@ class SimCamera:
                 & (uv[:, 1] >= margin_px) & (uv[:, 1] <= self.height - 1 - margin_px))
 
 
-def render_rgb(client, camera: SimCamera, noise_std: float = 0.0,
-               rng: np.random.Generator | None = None) -> np.ndarray:
-    """Render (H, W, 3) uint8 RGB with TinyRenderer (headless); optional Gaussian noise."""
+def _render_pinhole(client, camera: SimCamera) -> np.ndarray:
+    """(H, W, 3) uint8 RGB of the pinhole ``camera`` (TinyRenderer, headless)."""
     import pybullet
 
     _, _, rgba, _, _ = client.getCameraImage(
         camera.width, camera.height, camera.view_matrix(), camera.projection_matrix(),
         renderer=pybullet.ER_TINY_RENDERER, flags=pybullet.ER_NO_SEGMENTATION_MASK,
         shadow=0)
-    image = np.asarray(rgba, dtype=np.uint8).reshape(camera.height, camera.width, 4)[..., :3]
-    if noise_std > 0.0:
+    return np.asarray(rgba, dtype=np.uint8).reshape(camera.height, camera.width, 4)[..., :3]
+
+
+def render_rgb(client, camera: SimCamera, noise_std: float = 0.0,
+               rng: np.random.Generator | None = None) -> np.ndarray:
+    """Render (H, W, 3) uint8 RGB as ``camera`` images the scene: through its lens
+    (distortion), blurred, with shot noise and ``noise_std`` read noise (grey levels)."""
+    if camera.intrinsics.distorted:
+        warp = lens_warp(camera.intrinsics)
+        c = warp.canvas
+        canvas = replace(camera, width=c.width, height=c.height, cx=c.cx, cy=c.cy,
+                         distortion=NO_DISTORTION)
+        image = warp.apply(_render_pinhole(client, canvas).astype(np.float32))
+    else:
+        image = _render_pinhole(client, camera).astype(np.float32)
+    return expose(image, camera, noise_std, rng)
+
+
+def expose(image: np.ndarray, camera: SimCamera, noise_std: float = 0.0,
+           rng: np.random.Generator | None = None) -> np.ndarray:
+    """The sensor's reading of a float image (grey levels 0-255): blur, shot noise from
+    ``camera.full_well_e``, read noise ``noise_std``, rounding to uint8."""
+    if camera.blur_sigma_px > 0.0:
+        image = cv2.GaussianBlur(image, (0, 0), camera.blur_sigma_px,
+                                 borderType=cv2.BORDER_REPLICATE)
+    variance = np.float32(noise_std * noise_std)
+    if camera.full_well_e > 0.0:  # Poisson electrons: var(DN) = DN * (255 / full well)
+        variance = variance + np.clip(image, 0.0, None) * np.float32(
+            FULL_SCALE_DN / camera.full_well_e)
+    if np.any(variance > 0.0):
         rng = rng or np.random.default_rng()
-        noisy = image.astype(np.float32) + rng.normal(0.0, noise_std, image.shape)
-        image = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
-    return np.ascontiguousarray(image)
+        image = image + np.sqrt(variance) * rng.standard_normal(image.shape, np.float32)
+    return np.ascontiguousarray(np.clip(np.rint(image), 0, 255).astype(np.uint8))

@@ -121,17 +121,32 @@ class CameraConfig:
         "camera_optical_frame orientation in world (true pose; x y z w)")
     rate_hz: float = param(2.0, "image rate in simulated time (0 = only on /camera/trigger)",
                            unit="Hz")
-    noise_std: float = param(0.0, "std of Gaussian pixel noise (0 = none)", unit="grey levels")
+    noise_std: float = param(0.23, "std of the signal-independent (read) pixel noise; 0 = "
+                             "none", unit="grey levels")
+    full_well_e: float = param(10000.0, "electrons at full scale (255): photon shot noise of "
+                               "variance grey x 255 / full_well_e; 0 = none", unit="e-")
+    blur_sigma_px: float = param(0.5, "sigma of the Gaussian blur (lens, diffraction, pixel "
+                                 "area); 0 = none", unit="px")
+    distortion: tuple = param([-0.10, 0.08, 0.0002, -0.00015, 0.0],
+                              "lens distortion, plumb_bob k1, k2, p1, p2, k3 (published in "
+                              "camera_info d); all zero = ideal pinhole")
 
     def __post_init__(self) -> None:
         if len(self.position) != 3 or len(self.orientation_xyzw) != 4:
             raise ValueError("camera.position needs 3 values, camera.orientation_xyzw 4")
         if self.rate_hz < 0 or self.noise_std < 0:
             raise ValueError("camera.rate_hz and camera.noise_std must be >= 0")
+        if self.full_well_e < 0 or self.blur_sigma_px < 0:
+            raise ValueError("camera.full_well_e and camera.blur_sigma_px must be >= 0")
+        if len(self.distortion) != 5:
+            raise ValueError("camera.distortion needs 5 values: k1, k2, p1, p2, k3")
+        self.model()  # a distortion that folds the image over fails at startup
 
     def model(self) -> SimCamera:
         return SimCamera(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
-                           tuple(self.position), tuple(self.orientation_xyzw))
+                         tuple(self.position), tuple(self.orientation_xyzw),
+                         distortion=tuple(self.distortion), blur_sigma_px=self.blur_sigma_px,
+                         full_well_e=self.full_well_e)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,9 @@
-"""The overhead camera: tags land on the pixels the intrinsics predict, all are visible."""
+"""The overhead camera: tags land on the pixels the intrinsics and the lens predict, all are
+visible; blur and noise are the configured ones, and seeded."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import cv2
 import numpy as np
@@ -8,7 +11,9 @@ import pytest
 
 from msgs_py import load_scene
 from nodes.common.paths import config_path
+from nodes.detector.tags import TagFinder
 from nodes.sim import robot_model as rm
+from nodes.sim.camera import render_rgb
 from nodes.sim.config import CameraConfig, SimConfig
 from nodes.sim.world import SimWorld
 
@@ -67,16 +72,50 @@ def test_a_tag_is_at_least_30_px_across_over_the_whole_workspace():
             assert np.linalg.norm(uv[0] - uv[1]) >= 30.0
 
 
-def test_pixel_noise_is_optional_and_seeded(default_world):
-    clean = default_world.render()
-    default_world.noise_std = 3.0
+def test_the_lens_images_tags_where_opencv_projects_them():
+    """The warp's direction: tag corners measured on the rendered (distorted) image are
+    where cv2.projectPoints puts the blocks' true corners with the published ``d``, and
+    far from where a pinhole would put them."""
+    camera = CameraConfig().model()
+    assert camera.intrinsics.distorted
+    world = SimWorld(SimConfig(), camera, load_scene(config_path("scenes/calibration.yaml")))
     try:
-        noisy = default_world.render()
+        world.step(24)
+        image = render_rgb(world.client, camera)  # the configured blur and shot noise
+        found = {d.tag_id: d.corners for d in TagFinder().find(image[..., 1])}
+        assert sorted(found) == sorted(world.block_bodies)
+        r_wc = camera.rotation
+        rvec, _ = cv2.Rodrigues(r_wc.T)
+        tvec = -r_wc.T @ np.asarray(camera.position)
+        errors, pinhole_errors = [], []
+        for block_id, corners in found.items():
+            truth = tag_corners_world(world, block_id)
+            expected, _ = cv2.projectPoints(truth, rvec, tvec, camera.k,
+                                            np.asarray(camera.distortion))
+            errors += list(np.linalg.norm(corners - expected.reshape(4, 2), axis=1))
+            pinhole_errors += list(np.linalg.norm(corners - camera.project_ideal(truth),
+                                                  axis=1))
     finally:
-        default_world.noise_std = 0.0
-    diff = noisy.astype(float) - clean.astype(float)
-    assert 2.0 < diff.std() < 4.0
-    assert np.array_equal(default_world.render(), clean)
+        world.close()
+    assert np.median(errors) < 0.15 and np.max(errors) < 0.6, (np.median(errors),
+                                                                np.max(errors))
+    assert np.max(pinhole_errors) > 4.0  # the lens matters at the edges of the view
+
+
+def test_pixel_noise_is_the_configured_shot_and_read_noise_and_seeded(default_world):
+    """Grey-level noise std: sqrt(read^2 + grey x 255 / full_well), per pixel; the same seed
+    gives the same frame."""
+    camera = dataclasses.replace(default_world.camera, full_well_e=10000.0)
+    blurred_only = dataclasses.replace(camera, full_well_e=0.0)
+    clean = render_rgb(default_world.client, blurred_only).astype(float)
+    noisy = render_rgb(default_world.client, camera, 0.5,
+                       np.random.default_rng(3)).astype(float)
+    again = render_rgb(default_world.client, camera, 0.5, np.random.default_rng(3))
+    assert np.array_equal(again, noisy.astype(np.uint8))
+    for lo, hi in ((20.0, 60.0), (150.0, 240.0)):
+        mask = (clean >= lo) & (clean < hi)
+        expected = np.sqrt(0.5**2 + np.mean(clean[mask]) * 255.0 / 10000.0 + 1.0 / 12.0)
+        assert np.std((noisy - clean)[mask]) == pytest.approx(expected, rel=0.1)
 
 
 def test_camera_config_defaults_frame_the_default_workspace():

@@ -1,4 +1,5 @@
-"""The detector and the calibration on frames rendered by the sim's own world (no ROS)."""
+"""The detector and the calibration on frames rendered by the sim's own world (no ROS), with
+the sim's realistic camera (lens distortion, blur, noise)."""
 
 from __future__ import annotations
 
@@ -30,8 +31,9 @@ def sim_world(scene_file: str) -> SimWorld:
 
 
 def intrinsics(world: SimWorld) -> CameraIntrinsics:
-    c = world.camera
-    return CameraIntrinsics(c.width, c.height, c.fx, c.fy, c.cx, c.cy)
+    """What the sim publishes on /camera/camera_info: k and the lens's d."""
+    assert world.camera.intrinsics.distorted  # the realistic camera is the default
+    return world.camera.intrinsics
 
 
 @pytest.fixture(scope="module")

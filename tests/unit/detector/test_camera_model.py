@@ -1,9 +1,11 @@
-"""Pinhole projection, ray-plane intersection and the calibration file."""
+"""Projection (pinhole and through a plumb_bob lens), ray-plane intersection and the
+calibration file."""
 
 from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -29,6 +31,32 @@ def test_rays_meet_the_plane_where_the_points_were():
     pts = np.array([[0.5, -0.3, 0.0508], [0.9, 0.25, 0.0508], [0.7, 0.0, 0.0508]])
     back = cam.intersect_plane_z(cam.project(pts), 0.0508)
     np.testing.assert_allclose(back, pts, atol=1e-12)
+
+
+#: The sim's default lens (config/sim.yaml camera.distortion).
+LENS = (-0.10, 0.08, 0.0002, -0.00015, 0.0)
+SPREAD = np.array([[x, y, z] for x in (0.42, 0.7, 0.98) for y in (-0.38, 0.0, 0.38)
+                   for z in (0.0, 0.0508)])
+
+
+def test_projection_through_the_lens_is_opencvs():
+    cam = overhead_camera(focal_px=1400.0, distortion=LENS)
+    rvec, tvec = cam.rvec_tvec()
+    expected, _ = cv2.projectPoints(SPREAD, rvec, tvec, cam.k, np.array(LENS))
+    np.testing.assert_allclose(cam.project(SPREAD), expected.reshape(-1, 2), atol=1e-9)
+    # the lens moves the workspace's far corners by pixels: not a rounding error
+    shift = np.linalg.norm(cam.project(SPREAD) - cam.pinhole().project(SPREAD), axis=1)
+    assert shift.max() > 5.0
+
+
+def test_undistort_inverts_the_lens_and_rays_use_it():
+    cam = overhead_camera(focal_px=1400.0, distortion=LENS)
+    measured = cam.project(SPREAD)
+    np.testing.assert_allclose(cam.undistort(measured), cam.pinhole().project(SPREAD),
+                               atol=1e-8)
+    top = SPREAD[SPREAD[:, 2] > 0]
+    np.testing.assert_allclose(cam.intersect_plane_z(cam.project(top), 0.0508), top,
+                               atol=1e-10)
 
 
 def test_rvec_tvec_round_trip():

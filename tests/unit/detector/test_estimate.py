@@ -13,13 +13,16 @@ from nodes.detector.synthetic import overhead_camera
 from nodes.detector.tag_geometry import BLOCK_SIZE, tag_corners_world
 
 CAMERA = overhead_camera()
+#: The sim's camera: fx 1400 px and its lens (config/sim.yaml).
+LENS_CAMERA = overhead_camera(focal_px=1400.0, distortion=(-0.10, 0.08, 0.0002, -0.00015, 0.0))
 
 
+@pytest.mark.parametrize("camera", [CAMERA, LENS_CAMERA], ids=["pinhole", "lens"])
 @pytest.mark.parametrize("method", sorted(ESTIMATORS))
 @pytest.mark.parametrize("block", [BlockPose(0, 0.7, 0.0, 0.0), BlockPose(1, 0.5, -0.3, 2.9),
                                    BlockPose(2, 0.93, 0.33, -1.2)])
-def test_exact_corners_give_the_exact_pose(method, block):
-    est = ESTIMATORS[method](CAMERA, CAMERA.project(tag_corners_world(block)))
+def test_exact_corners_give_the_exact_pose(method, block, camera):
+    est = ESTIMATORS[method](camera, camera.project(tag_corners_world(block)))
     assert math.hypot(est.x - block.x, est.y - block.y) < 1e-6
     assert abs(math.remainder(est.theta - block.theta, 2 * math.pi)) < 1e-6
     assert est.reprojection_px < 1e-3

@@ -45,12 +45,38 @@ def test_bad_images_are_refused(change, field):
         image_to_array(msg)
 
 
-def test_camera_info_round_trip():
-    intr = CameraIntrinsics(1280, 960, 1100.0, 1101.0, 639.5, 479.5)
+LENS = (-0.10, 0.08, 0.0002, -0.00015, 0.0)
+
+
+@pytest.mark.parametrize("d", [(0.0,) * 5, LENS])
+def test_camera_info_round_trip(d):
+    intr = CameraIntrinsics(1280, 960, 1100.0, 1101.0, 639.5, 479.5, d)
     msg = intrinsics_to_camera_info(intr, 5, "camera_optical_frame")
     assert list(msg.p)[:3] == [1100.0, 0.0, 639.5] and msg.header.frame_id == (
         "camera_optical_frame")
+    assert msg.distortion_model == "plumb_bob" and tuple(msg.d) == pytest.approx(d)
     assert camera_info_to_intrinsics(msg) == intr
+    assert camera_info_to_intrinsics(msg).distorted == any(d)
+
+
+def test_an_empty_d_is_an_ideal_lens():
+    msg = intrinsics_to_camera_info(CameraIntrinsics(640, 480, 500.0, 500.0, 320, 240), 0)
+    msg.d, msg.distortion_model = [], ""
+    assert camera_info_to_intrinsics(msg).d == (0.0,) * 5
+
+
+@pytest.mark.parametrize("model,d,field", [
+    ("rational_polynomial", [0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "distortion_model"),
+    ("plumb_bob", [0.1, 0.0, 0.0, 0.0], "5 coefficients"),
+    ("plumb_bob", [0.1, 0.0, float("nan"), 0.0, 0.0], "finite"),
+    # k1 = -0.9: r (1 + k1 r^2) turns back at r = 0.61, inside this image (corners 0.8)
+    ("plumb_bob", [-0.9, 0.0, 0.0, 0.0, 0.0], "folds over"),
+])
+def test_bad_distortion_is_refused(model, d, field):
+    msg = intrinsics_to_camera_info(CameraIntrinsics(640, 480, 500.0, 500.0, 320, 240), 0)
+    msg.distortion_model, msg.d = model, d
+    with pytest.raises(MessageError, match=field):
+        camera_info_to_intrinsics(msg)
 
 
 def test_bad_camera_info_is_refused():
@@ -58,7 +84,4 @@ def test_bad_camera_info_is_refused():
     msg.k = [0.0] * 9
     with pytest.raises(MessageError, match=r"camera_info\.k"):
         camera_info_to_intrinsics(msg)
-    msg = intrinsics_to_camera_info(CameraIntrinsics(640, 480, 500.0, 500.0, 320, 240), 0)
-    msg.d = [0.1, 0.0, 0.0, 0.0, 0.0]
-    with pytest.raises(MessageError, match="distortion"):
-        camera_info_to_intrinsics(msg)
+
