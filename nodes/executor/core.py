@@ -35,6 +35,7 @@ import math
 
 from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
 from msgs_py.cell import GripperGeometry
+from msgs_py.status import GripperStatus
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.faults import FaultHandling
 from nodes.executor.ledger import TimeLedger
@@ -49,7 +50,7 @@ from nodes.executor.primitives import (
 from nodes.executor.recovery import holds_block
 from nodes.executor.states import TRANSITIONS, After, Held, Outputs, Purpose, State
 from nodes.executor.steps import Step, StepRunner
-from nodes.executor.supervision import GraspSupervisor, GripperReading
+from nodes.executor.supervision import GraspSupervisor
 from nodes.executor.verify import Deviation, deviations, goal_errors
 
 #: A tick advances the running script by at most this many tick periods (see ``_run``).
@@ -77,7 +78,7 @@ class ExecutorCore(FaultHandling):
         self.commanded: ToolPose | None = None  # last setpoint streamed
         self.finger_gap: float | None = None
         self._new_gaps: list[tuple[float, float]] = []  # (time, gap) since the last tick
-        self._new_readings: list[GripperReading] = []
+        self._new_readings: list[GripperStatus] = []
         self._checked_fingers = False
         self.last_error = ""
         self.detail = ""
@@ -125,10 +126,10 @@ class ExecutorCore(FaultHandling):
         if stamp_s is not None:
             self._new_gaps.append((stamp_s, gap))
 
-    def on_gripper(self, reading: GripperReading) -> None:
+    def on_gripper(self, reading: GripperStatus) -> None:
         """A gripper status (the 2F-85 driver's): position, request, object detection."""
         self.finger_gap = reading.gap
-        self._new_gaps.append((reading.stamp, reading.gap))
+        self._new_gaps.append((reading.stamp_ns * 1e-9, reading.gap))
         self._new_readings.append(reading)
 
     def on_frame_taken(self, stamp_ns: int) -> None:

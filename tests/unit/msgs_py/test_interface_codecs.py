@@ -184,6 +184,14 @@ def test_poses_and_block_poses_round_trip_bit_exact(pose, block_id):
               ic.block_pose_from_msg)
 
 
+@given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1))
+def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns):
+    from msgs_py.placement import Placement
+
+    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns), ic.placement_to_msg,
+              ic.placement_from_msg)
+
+
 @st.composite
 def block_sets(draw):
     block_ids = draw(st.lists(st.integers(0, 586), unique=True, max_size=25))
