@@ -41,7 +41,14 @@ from msgs_py.placement import Placement
 from msgs_py.poses import BlockPose, Pose2D
 from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
 from msgs_py.scene import SCHEMA_VERSION, Goal, GoalSlot, GridSpec, Scene, Workspace
-from msgs_py.sim import SIM_EVENT_TYPES, Disturbance, SimEvent, SimEvents
+from msgs_py.sim import (
+    SIM_EVENT_TYPES,
+    SIM_FAULT_KINDS,
+    Disturbance,
+    SimEvent,
+    SimEvents,
+    SimFault,
+)
 from msgs_py.status import (
     EXECUTOR_STATES,
     GRIPPER_OBJECT_STATES,
@@ -86,6 +93,7 @@ PLAN_ERROR_CODES = _constants(PlanScene.Response, "ERROR_", PLAN_ERRORS)
 OUTCOME_CODES = _constants(Rearrange.Result, "OUTCOME_", REARRANGE_OUTCOMES)
 GRIPPER_OBJECT_CODES = _constants(ifc.GripperStatus, "OBJECT_", GRIPPER_OBJECT_STATES)
 SIM_EVENT_CODES = _constants(ifc.SimEvent, "TYPE_", SIM_EVENT_TYPES)
+SIM_FAULT_CODES = _constants(ifc.SimFault, "KIND_", SIM_FAULT_KINDS)
 ACTION_TYPE_CODES = {"pick_place": ifc.PlanAction.PICK_PLACE, "push": ifc.PlanAction.PUSH}
 
 
@@ -625,6 +633,23 @@ def gripper_status_from_msg(msg: ifc.GripperStatus) -> GripperStatus:
                          stamp_to_ns(msg.header.stamp))
 
 
+def sim_fault_to_msg(fault: SimFault) -> ifc.SimFault:
+    msg = ifc.SimFault(kind=_code_to("kind", SIM_FAULT_CODES, fault.kind),
+                       value=_float("value", fault.value))
+    msg.block = _optional_block_to("block", fault.block)
+    if fault.pose is not None:
+        msg.pose = pose_to_msg(Pose2D(*fault.pose))
+    return msg
+
+
+def sim_fault_from_msg(msg: ifc.SimFault) -> SimFault:
+    kind = _code_from("kind", SIM_FAULT_CODES, msg.kind)
+    block = _optional_block_from("block", msg.block)
+    pose = pose_from_msg(msg.pose) if kind == "add_block" else None
+    return SimFault(kind, block, None if pose is None else (pose.x, pose.y, pose.theta),
+                    _float("value", msg.value))
+
+
 def placement_to_msg(placement: Placement) -> ifc.Placement:
     msg = ifc.Placement(block=_block_id("block", placement.block),
                         pose=pose_to_msg(placement.pose),
@@ -824,6 +849,7 @@ ENCODERS: dict[type, Callable[[Any], Any]] = {
     BlockError: block_error_to_msg,
     GripperStatus: gripper_status_to_msg,
     Placement: placement_to_msg,
+    SimFault: sim_fault_to_msg,
     SimEvent: sim_event_to_msg,
     SimEvents: sim_events_to_msg,
     Disturbance: disturbance_to_msg,
@@ -851,6 +877,7 @@ DECODERS: dict[type, Callable[[Any], Any]] = {
     ifc.BlockError: block_error_from_msg,
     ifc.GripperStatus: gripper_status_from_msg,
     ifc.Placement: placement_from_msg,
+    ifc.SimFault: sim_fault_from_msg,
     ifc.SimEvent: sim_event_from_msg,
     ifc.SimEvents: sim_events_from_msg,
     ifc.Disturbance: disturbance_from_msg,
