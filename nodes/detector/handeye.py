@@ -11,6 +11,9 @@ axis a and released with the TCP at G is seen at
 
     O = G + e(G) - perp_a(e(P))        and its yaw at    theta_G + w,
 
+(once a correction is in use the fingers grip at the corrected Q instead of P, and the block
+keeps ``perp_a(P - Q)`` more across them),
+
 (the pads square the block up with the tool, so the yaw error shows whole). Both are linear in
 (dx, dy, w) for a fixed centre c: a few placements with closing axes in different directions
 give the error by least squares, and the detector then corrects its output (``PlaneCorrection``)
@@ -37,6 +40,8 @@ MIN_ERROR = 0.0004
 #: from parallel (sine of the angle between them).
 MAX_RELATIVE_SIGMA = 0.3
 MIN_AXIS_SPREAD = 0.5
+#: A placement this far (m) from where the others put the error was disturbed: not used.
+OUTLIER_M = 0.0015
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,14 +74,16 @@ class PlaneCorrection:
 
 @dataclass(frozen=True, slots=True)
 class Sample:
-    """One placement, in the camera's uncorrected frame: picked where perceived at ``picked``,
-    released with the TCP at ``placed`` (arm frame), closing axis at ``axis_yaw``, then seen at
-    ``seen``."""
+    """One placement: the block perceived at ``picked`` (in the camera's uncorrected frame),
+    gripped with the fingers centred at ``gripped`` (arm frame; None: at ``picked``, as when no
+    correction is in use), released with the TCP at ``placed`` (arm frame), closing axis at
+    ``axis_yaw``, then seen at ``seen`` (uncorrected)."""
 
     picked: Pose2D
     placed: Pose2D
     axis_yaw: float
     seen: Pose2D
+    gripped: Pose2D | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,8 +94,25 @@ class Estimate:
     rms_residual: float  #: RMS of the fit's position residuals (m)
 
 
-def sample_from(placement: Placement, seen_raw: Pose2D, picked_raw: Pose2D) -> Sample:
-    return Sample(picked_raw, placement.pose, placement.closing_axis_yaw, seen_raw)
+def _equations(s: Sample, centre: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """One sample's three equations in (dx, dy, w): position x, y and yaw, unweighted."""
+    cx, cy = centre
+    a = np.array([math.cos(s.axis_yaw), math.sin(s.axis_yaw)])
+    par = np.outer(a, a)  # v -> (v.a) a
+    perp = np.eye(2) - par
+    turn = np.array([[0.0, -1.0], [1.0, 0.0]])  # d/dw of R(w) v at w = 0
+    g = np.array([s.placed.x - cx, s.placed.y - cy])
+    p = np.array([s.picked.x - cx, s.picked.y - cy])
+    # The block stood at true = P - e(P); the fingers centred it along a about Q, so it is set
+    # down at G + perp (true - Q) and seen there plus e: with e(x) = d + w J (x - c),
+    # O - G - perp (P - Q) = par (d) + w (J g - perp J p); the yaw shows the turn whole.
+    q = s.picked if s.gripped is None else s.gripped
+    across = perp @ np.array([s.picked.x - q.x, s.picked.y - q.y])
+    a_w = turn @ g - perp @ (turn @ p)
+    rows = np.array([np.append(par[0], a_w[0]), np.append(par[1], a_w[1]), [0.0, 0.0, 1.0]])
+    rhs = np.array([s.seen.x - s.placed.x - across[0], s.seen.y - s.placed.y - across[1],
+                    math.remainder(s.seen.theta - s.placed.theta, math.pi / 2)])
+    return rows, rhs
 
 
 def estimate(samples: Sequence[Sample], centre: tuple[float, float]) -> Estimate | None:
@@ -96,38 +120,49 @@ def estimate(samples: Sequence[Sample], centre: tuple[float, float]) -> Estimate
     than two placements."""
     if len(samples) < 2:
         return None
-    rows, rhs, weights = [], [], []
-    cx, cy = centre
-    for s in samples:
-        a = np.array([math.cos(s.axis_yaw), math.sin(s.axis_yaw)])
-        par = np.outer(a, a)  # v -> (v.a) a
-        perp = np.eye(2) - par
-        turn = np.array([[0.0, -1.0], [1.0, 0.0]])  # d/dw of R(w) v at w = 0
-        g = np.array([s.placed.x - cx, s.placed.y - cy])
-        p = np.array([s.picked.x - cx, s.picked.y - cy])
-        # O - G = par (d) + w (J g - perp J p)
-        a_d = par
-        a_w = turn @ g - perp @ (turn @ p)
-        rows += [np.append(a_d[k], a_w[k]) for k in range(2)]
-        rhs += [s.seen.x - s.placed.x, s.seen.y - s.placed.y]
-        weights += [1.0 / POSITION_SIGMA] * 2
-        rows.append(np.array([0.0, 0.0, 1.0]))  # the yaw shows the turn whole
-        rhs.append(math.remainder(s.seen.theta - s.placed.theta, math.pi / 2))
-        weights.append(1.0 / YAW_SIGMA)
-    a_mat = np.array(rows) * np.array(weights)[:, None]
-    b = np.array(rhs) * np.array(weights)
+    equations = [_equations(s, centre) for s in samples]
+    rows = np.vstack([r for r, _ in equations])
+    rhs = np.concatenate([b for _, b in equations])
+    weights = np.tile([1.0 / POSITION_SIGMA] * 2 + [1.0 / YAW_SIGMA], len(samples))
+    a_mat = rows * weights[:, None]
+    b = rhs * weights
     solution, *_ = np.linalg.lstsq(a_mat, b, rcond=None)
     normal = a_mat.T @ a_mat
     try:
         cov = np.linalg.inv(normal)
     except np.linalg.LinAlgError:
         return None
-    fit = np.array(rows) @ solution - np.array(rhs)
+    fit = rows @ solution - rhs
     pos = fit[[k for k in range(len(rhs)) if (k % 3) < 2]]
     dx, dy, w = (float(v) for v in solution)
-    return Estimate(PlaneCorrection(dx, dy, w, cx, cy),
+    return Estimate(PlaneCorrection(dx, dy, w, centre[0], centre[1]),
                     tuple(float(math.sqrt(max(v, 0.0))) for v in np.diag(cov)), len(samples),
                     float(np.sqrt(np.mean(pos ** 2))))
+
+
+def misfit(s: Sample, c: PlaneCorrection) -> float:
+    """How far (m) sample ``s`` lands from where correction ``c`` predicts it."""
+    rows, rhs = _equations(s, (c.cx, c.cy))
+    fit = rows[:2] @ np.array([c.dx, c.dy, c.w]) - rhs[:2]
+    return float(np.hypot(*fit))
+
+
+def robust_estimate(samples: Sequence[Sample], centre: tuple[float, float]
+                    ) -> tuple[Estimate | None, list[Sample]]:
+    """``estimate`` without the samples that disagree with the rest by more than OUTLIER_M
+    (a block knocked, or pushed by a neighbour, as it was set down: the arm did not leave it
+    where it says), worst first, as long as more than two remain; and the samples dropped."""
+    kept = list(samples)
+    dropped: list[Sample] = []
+    while True:
+        est = estimate(kept, centre)
+        if est is None or len(kept) <= 2:
+            return est, dropped
+        worst = max(kept, key=lambda s: misfit(s, est.correction))
+        if misfit(worst, est.correction) <= OUTLIER_M:
+            return est, dropped
+        kept.remove(worst)
+        dropped.append(worst)
 
 
 def axis_spread(samples: Sequence[Sample]) -> float:
@@ -205,7 +240,7 @@ class HandEye:
                 still.append((placement, picked))
             elif placement.block in seen:
                 self.samples.append(Sample(picked, placement.pose, placement.closing_axis_yaw,
-                                           seen[placement.block]))
+                                           seen[placement.block], placement.picked_from))
                 self._update(raw.stamp_ns)
         self.pending = still
         if self.correction == PlaneCorrection(cx=self.centre[0], cy=self.centre[1]):
@@ -216,7 +251,12 @@ class HandEye:
                         raw.reprojection_px)
 
     def _update(self, stamp_ns: int) -> None:
-        est = estimate(self.samples, self.centre)
+        est, dropped = robust_estimate(self.samples, self.centre)
+        for sample in dropped:
+            self.samples.remove(sample)
+            self.log.append(f"placement at ({sample.placed.x:.3f}, {sample.placed.y:.3f}) "
+                            f"left out of the camera check: it disagrees with the others by "
+                            f"{misfit(sample, est.correction) * 1e3:.1f} mm (disturbed?)")
         if est is None or not worth_correcting(est, self.samples, self.corners):
             return
         change = max(abs(est.correction.error_at(x, y) - self.correction.error_at(x, y))

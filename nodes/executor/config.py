@@ -93,6 +93,13 @@ class ExecutorConfig:
     accept_yaw_tolerance_deg: float = param(
         cell.ACCEPT_TOLERANCE_YAW_DEG,
         "... and this close in yaw (modulo 90 degrees)", unit="deg")
+    camera_check: bool = param(
+        True, "before the first action of the executor's first run, re-grip the most isolated "
+        "block in place along both its axes so the detector can check its calibration "
+        "against the arm (nodes/executor/camera_check.py)")
+    camera_check_margin: float = param(
+        0.015, "the camera check's block: its widest-open fingers clear every neighbour by "
+        "this much, for a camera up to this far off", unit="m")
     observe_every_action: bool = param(
         True, "take a fresh detection after every action, from the look pose (closed loop)")
     detection_timeout_s: float = param(

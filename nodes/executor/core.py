@@ -38,6 +38,7 @@ from msgs_py import BlockSet, ExecutorStatus, PickPlace, Plan, Pose2D, Workspace
 from msgs_py.actions import Action
 from msgs_py.cell import GRIPPER_STROKE, GripperGeometry, table_margin_of
 from msgs_py.status import GripperStatus
+from nodes.executor.camera_check import probe_actions, probe_block
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.faults import FaultHandling
 from nodes.executor.ledger import TimeLedger
@@ -97,6 +98,8 @@ class ExecutorCore(FaultHandling):
         self._last_run: float | None = None
         self._replans = 0
         self._grasp_tries = 0
+        self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
+        self._probes = 0  # the plan's first actions that are the camera check's re-grips
         self._replan_sent_at: float | None = None
         self._rejected_plans: set[str] = set()
         self._pending_plan: Plan | None = None
@@ -241,6 +244,8 @@ class ExecutorCore(FaultHandling):
             return "replan"
         if self.state is State.RECOVERING:
             return "recover"
+        if self.index < self._probes:
+            return "camera_check"
         label = self.runner.current_label if self.runner is not None else ""
         if label.startswith("block ") and self.plan is not None and self.state in (
                 State.RUNNING, State.OBSERVING):
@@ -298,6 +303,7 @@ class ExecutorCore(FaultHandling):
         self.supervisor.block_size = self.geo.block_size
         self.index = 0
         self._grasp_tries = 0
+        self._probes = 0
         self.last_error = ""
         self._pending_plan = None
         self.detail = f"plan {plan.plan_id or '?'}: {len(plan.actions)} actions"
@@ -328,10 +334,37 @@ class ExecutorCore(FaultHandling):
             return
         self.expected = dict(self.perceived)
         self.index = 0
-        if plan.actions:
+        self._check_camera_first()
+        if self.plan.actions:
             self._next_action()
         else:
             self._verify_goal()
+
+    def _check_camera_first(self) -> None:
+        """Before the first action of the executor's first run: the camera check's two
+        in-place re-grips go in front of the plan (``nodes.executor.camera_check``)."""
+        plan = self.plan
+        if self._camera_checked or plan is None or plan.scene is None or not plan.actions:
+            return
+        self._camera_checked = True
+        table = self._table(plan)
+        block = probe_block(self.expected, self.geo, table, self.cfg.pick_clearance,
+                            self.cfg.camera_check_margin)
+        if block is None:
+            self._log("camera check skipped: no block has room for the fingers on all sides")
+            return
+        probes = probe_actions(block, self.expected[block])
+        self.plan = dataclasses.replace(plan, actions=probes + tuple(plan.actions))
+        self._probes = len(probes)
+        self._log(f"camera check: block {block} re-gripped in place along both of its axes")
+
+    def _table(self, plan: Plan) -> Workspace:
+        """The table the fingers may stand on: the workspace and the plan's margin."""
+        assert plan.scene is not None
+        margin = table_margin_of(plan.params)
+        ws = plan.scene.workspace
+        return Workspace(ws.x_min - margin, ws.x_max + margin, ws.y_min - margin,
+                         ws.y_max + margin)
 
     # --- observing ------------------------------------------------------------------------------
     def _observe(self, purpose: Purpose, near: bool = False) -> None:
@@ -413,6 +446,9 @@ class ExecutorCore(FaultHandling):
         """After an action, a recovery or a stop: the world must be as expected."""
         plan = self.plan
         assert plan is not None
+        probed = plan.actions[self.index - 1].block if 0 < self.index <= self._probes else None
+        if probed is not None and probed in self.perceived:  # a re-grip: judged by the detector
+            self.expected[probed] = self.perceived[probed]
         off, missing = deviations(self.perceived, self.expected, self.cfg.pos_tolerance,
                                   self.cfg.yaw_tolerance)
         if missing:
@@ -530,8 +566,9 @@ class ExecutorCore(FaultHandling):
             self._fail(f"action {self.index + 1} moves block {action.block}, which is not seen")
             return
         self._enter(State.RUNNING)
+        check = " (camera check: in-place re-grip)" if self.index < self._probes else ""
         self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
-                      f"block {action.block}"
+                      f"block {action.block}{check}"
         self._log(self.detail)
         steps = action_steps(action, start, self.geo, self.cfg,
                              self._pick_opening(action, start))
@@ -554,11 +591,7 @@ class ExecutorCore(FaultHandling):
         if wide.approach_opening > GRIPPER_STROKE - 0.001:
             return None
         around = {**self.expected, action.block: start}
-        margin = table_margin_of(plan.params)
-        ws = plan.scene.workspace
-        table = Workspace(ws.x_min - margin, ws.x_max + margin, ws.y_min - margin,
-                          ws.y_max + margin)
-        if not fingers_clear(around, action.block, wide, action.grasp, table):
+        if not fingers_clear(around, action.block, wide, action.grasp, self._table(plan)):
             return None
         return wide.approach_opening
 
@@ -636,9 +669,13 @@ class ExecutorCore(FaultHandling):
     def _action_done(self) -> None:
         plan = self.plan
         assert plan is not None
-        self.metrics["actions_executed"] += 1
-        kind = f"{plan.actions[self.index].type}_executed"  # pick_place_executed, push_executed
-        self.metrics[kind] = self.metrics.get(kind, 0.0) + 1.0
+        if self.index < self._probes:
+            self.metrics["camera_check_regrips"] = (
+                self.metrics.get("camera_check_regrips", 0.0) + 1.0)
+        else:
+            self.metrics["actions_executed"] += 1
+            kind = f"{plan.actions[self.index].type}_executed"  # pick_place_executed, ...
+            self.metrics[kind] = self.metrics.get(kind, 0.0) + 1.0
         self._grasp_tries = 0
         self.held = None
         looked_from_here = self._looks_after(self.index) and plan.scene is not None

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 
 from msgs_py import Pose2D
-from nodes.detector.handeye import PlaneCorrection, Sample, estimate, worth_correcting
+from nodes.detector.handeye import (
+    PlaneCorrection,
+    Sample,
+    estimate,
+    robust_estimate,
+    worth_correcting,
+)
 
 CENTRE = (0.70, 0.0)
 CORNERS = [(0.45, -0.35), (0.45, 0.35), (0.95, -0.35), (0.95, 0.35)]
@@ -118,3 +124,44 @@ def hand_eye_true(sample: Sample, d, w) -> Pose2D:
     """Where the block of ``sample`` truly stands (invert the camera's error)."""
     c = PlaneCorrection(d[0], d[1], w, *CENTRE)
     return c.apply(sample.seen)
+
+
+def test_a_placement_disturbed_after_release_is_left_out_and_the_rest_still_agree():
+    d, w = (0.012, -0.004), math.radians(0.3)
+    samples = [placement(Pose2D(0.8, 0.2, 0.4), Pose2D(0.8, 0.2, 0.4), 0.4, d, w),
+               placement(Pose2D(0.8, 0.2, 0.4), Pose2D(0.8, 0.2, 0.4), 0.4 + math.pi / 2, d, w),
+               placement(Pose2D(0.6, -0.1, 0.0), Pose2D(0.70, 0.0, 0.0), 0.0, d, w),
+               placement(Pose2D(0.55, 0.2, 1.0), Pose2D(0.7538, 0.0, 0.0), math.pi / 2, d, w)]
+    knocked = samples[2]  # a neighbour's placement pushed it 4 mm after the arm let go
+    samples[2] = Sample(knocked.picked, knocked.placed, knocked.axis_yaw,
+                        Pose2D(knocked.seen.x + 0.004, knocked.seen.y, knocked.seen.theta))
+    assert abs(estimate(samples, CENTRE).correction.dx - d[0]) > 5e-4  # pulled off by it
+    est, dropped = robust_estimate(samples, CENTRE)
+    assert dropped == [samples[2]]
+    assert est.correction.dx == pytest.approx(d[0], abs=2e-4)
+    assert est.correction.dy == pytest.approx(d[1], abs=2e-4)
+    # two samples are never thinned: nothing to tell which one is wrong
+    assert robust_estimate(samples[:2], CENTRE)[1] == []
+
+
+def test_placements_gripped_through_a_correction_agree_with_those_before_it():
+    d, w = (0.0135, -0.0039), math.radians(0.2)
+    at = Pose2D(0.8, 0.2, 0.4)
+    first = [placement(at, at, 0.4, d, w), placement(at, at, 0.4 + math.pi / 2, d, w)]
+    correction = estimate(first, CENTRE).correction
+    # later picks: the arm grips where the corrected perception puts the block, which is
+    # (nearly) where it is: the block keeps almost no offset across the fingers
+    later = []
+    for true, goal, axis in [(Pose2D(0.6, -0.1, 0.2), Pose2D(0.7, 0.0, 0.0), 0.0),
+                             (Pose2D(0.55, 0.25, 1.0), Pose2D(0.7538, -0.0538, 0.0), 1.2)]:
+        seen_before = perceive(true, d, w)
+        gripped = correction.apply(seen_before)
+        a = np.array([math.cos(axis), math.sin(axis)])
+        off = np.array([true.x - gripped.x, true.y - gripped.y])
+        across = off - (off @ a) * a
+        down = Pose2D(goal.x + across[0], goal.y + across[1], goal.theta)
+        later.append(Sample(seen_before, goal, axis, perceive(down, d, w), gripped))
+    est, dropped = robust_estimate(first + later, CENTRE)
+    assert dropped == []
+    assert est.rms_residual < 1e-4
+    assert est.correction.dx == pytest.approx(d[0], abs=2e-4)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Callable
@@ -16,7 +17,9 @@ from nodes.executor.core import ExecutorCore, State
 from nodes.executor.motion import ToolPose
 
 WS = Workspace(0.45, 0.95, -0.35, 0.35)
-CFG = ExecutorConfig(gripper_settle_s=0.2, detection_timeout_s=1.0, replan_timeout_s=5.0)
+CFG = ExecutorConfig(gripper_settle_s=0.2, detection_timeout_s=1.0, replan_timeout_s=5.0,
+                     camera_check=False)
+CHECKING = dataclasses.replace(CFG, camera_check=True)
 DT = 0.02
 
 
@@ -585,3 +588,55 @@ def test_a_stray_close_while_carrying_is_undone_and_the_carry_goes_on():
     world.run(lambda: core.state is State.DONE)
     assert core.metrics["faults_misfire"] == 1 and world.replan_requests == 0
     assert any("still held; command restored" in line for line in world.logs)
+
+
+def test_the_first_run_re_grips_the_most_isolated_block_on_both_axes_then_runs_the_plan():
+    core = ExecutorCore(CHECKING)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    regrips = [a for a in core.plan.actions[:2]]
+    # block 1 stands 0.25 m from the workspace's centre, block 2 0.22 m: block 2 is checked
+    assert [(a.block, a.grasp) for a in regrips] == [(2, 0), (2, 1)]
+    assert all(a.to == START[1].pose for a in regrips)
+    assert core.metrics["camera_check_regrips"] == 2
+    assert core.metrics["actions_executed"] == 3 and world.replan_requests == 0
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    # once in the executor's lifetime: a second plan runs without the check
+    core.on_plan(two_action_plan("p2", blocks=[BlockPose(1, *_xyt(world.blocks[1])),
+                                               BlockPose(2, *_xyt(world.blocks[2]))]))
+    world.run(lambda: core.state is State.DONE and core.plan.plan_id == "p2")
+    assert core.metrics["camera_check_regrips"] == 2
+
+
+def _xyt(p):
+    return p.x, p.y, p.theta
+
+
+def test_a_view_corrected_by_the_camera_check_makes_the_plan_replanned():
+    core = ExecutorCore(CHECKING)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.metrics.get("camera_check_regrips", 0) == 2)
+    # the detector corrected its calibration from the two re-grips: the other block is now
+    # seen 5 mm from where the uncorrected plan had it
+    p = world.blocks[1]
+    world.blocks[1] = Pose2D(p.x + 0.005, p.y, p.theta)
+    world.run(lambda: world.replan_requests > 0)
+    assert core.state is State.REPLANNING and "block 1" in core.detail
+
+
+def test_no_camera_check_when_no_block_has_room_for_open_fingers():
+    crowded = [BlockPose(1, 0.70, 0.0, 0.0), BlockPose(2, 0.7538, 0.0, 0.0),
+               BlockPose(3, 0.70, 0.0538, 0.0), BlockPose(4, 0.7538, 0.0538, 0.0)]
+    goal = {b.id: b.pose for b in crowded}
+    plan = Plan((PickPlace(1, crowded[0].pose, Pose2D(0.6, -0.2, 0.0), 0),), plan_id="c",
+                scene=scene(crowded, goal), params={"block_size": 0.0508})
+    core = ExecutorCore(CHECKING)
+    world = World(core, crowded)
+    core.on_plan(plan)
+    world.run(lambda: core.state is State.RUNNING)
+    world.run(lambda: any("camera check skipped" in line for line in world.logs), max_t=1.0)
+    assert len(core.plan.actions) == 1
