@@ -37,10 +37,18 @@ from msgs_py.actions import Action, PickPlace, Plan, Push
 from msgs_py.checks import finite_float
 from msgs_py.detection import BlockSet
 from msgs_py.errors import MessageError
+from msgs_py.placement import Placement
 from msgs_py.poses import BlockPose, Pose2D
 from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
 from msgs_py.scene import SCHEMA_VERSION, Goal, GoalSlot, GridSpec, Scene, Workspace
-from msgs_py.sim import SIM_EVENT_TYPES, Disturbance, SimEvent, SimEvents
+from msgs_py.sim import (
+    SIM_EVENT_TYPES,
+    SIM_FAULT_KINDS,
+    Disturbance,
+    SimEvent,
+    SimEvents,
+    SimFault,
+)
 from msgs_py.status import (
     EXECUTOR_STATES,
     GRIPPER_OBJECT_STATES,
@@ -85,6 +93,7 @@ PLAN_ERROR_CODES = _constants(PlanScene.Response, "ERROR_", PLAN_ERRORS)
 OUTCOME_CODES = _constants(Rearrange.Result, "OUTCOME_", REARRANGE_OUTCOMES)
 GRIPPER_OBJECT_CODES = _constants(ifc.GripperStatus, "OBJECT_", GRIPPER_OBJECT_STATES)
 SIM_EVENT_CODES = _constants(ifc.SimEvent, "TYPE_", SIM_EVENT_TYPES)
+SIM_FAULT_CODES = _constants(ifc.SimFault, "KIND_", SIM_FAULT_KINDS)
 ACTION_TYPE_CODES = {"pick_place": ifc.PlanAction.PICK_PLACE, "push": ifc.PlanAction.PUSH}
 
 
@@ -624,6 +633,42 @@ def gripper_status_from_msg(msg: ifc.GripperStatus) -> GripperStatus:
                          stamp_to_ns(msg.header.stamp))
 
 
+def sim_fault_to_msg(fault: SimFault) -> ifc.SimFault:
+    msg = ifc.SimFault(kind=_code_to("kind", SIM_FAULT_CODES, fault.kind),
+                       value=_float("value", fault.value))
+    msg.block = _optional_block_to("block", fault.block)
+    if fault.pose is not None:
+        msg.pose = pose_to_msg(Pose2D(*fault.pose))
+    return msg
+
+
+def sim_fault_from_msg(msg: ifc.SimFault) -> SimFault:
+    kind = _code_from("kind", SIM_FAULT_CODES, msg.kind)
+    block = _optional_block_from("block", msg.block)
+    pose = pose_from_msg(msg.pose) if kind == "add_block" else None
+    return SimFault(kind, block, None if pose is None else (pose.x, pose.y, pose.theta),
+                    _float("value", msg.value))
+
+
+def placement_to_msg(placement: Placement) -> ifc.Placement:
+    msg = ifc.Placement(block=_block_id("block", placement.block),
+                        pose=pose_to_msg(placement.pose),
+                        picked_from=pose_to_msg(placement.picked_from, "picked_from"),
+                        closing_axis_yaw=_float("closing_axis_yaw", placement.closing_axis_yaw))
+    msg.header.stamp = ns_to_stamp(placement.stamp_ns, "stamp_ns")
+    msg.header.frame_id = "world"
+    return msg
+
+
+def placement_from_msg(msg: ifc.Placement) -> Placement:
+    if msg.header.frame_id not in ("", "world"):
+        raise MessageError("header.frame_id", msg.header.frame_id, "placements are in world")
+    return Placement(int(msg.block), pose_from_msg(msg.pose),
+                     pose_from_msg(msg.picked_from, "picked_from"),
+                     _float("closing_axis_yaw", msg.closing_axis_yaw),
+                     stamp_to_ns(msg.header.stamp))
+
+
 # --- the simulator's events and disturbances -------------------------------------------------
 def sim_event_to_msg(event: SimEvent, where: str = "event") -> ifc.SimEvent:
     return ifc.SimEvent(
@@ -803,6 +848,8 @@ ENCODERS: dict[type, Callable[[Any], Any]] = {
     RearrangeResult: rearrange_result_to_msg,
     BlockError: block_error_to_msg,
     GripperStatus: gripper_status_to_msg,
+    Placement: placement_to_msg,
+    SimFault: sim_fault_to_msg,
     SimEvent: sim_event_to_msg,
     SimEvents: sim_events_to_msg,
     Disturbance: disturbance_to_msg,
@@ -829,6 +876,8 @@ DECODERS: dict[type, Callable[[Any], Any]] = {
     Rearrange.Result: rearrange_result_from_msg,
     ifc.BlockError: block_error_from_msg,
     ifc.GripperStatus: gripper_status_from_msg,
+    ifc.Placement: placement_from_msg,
+    ifc.SimFault: sim_fault_from_msg,
     ifc.SimEvent: sim_event_from_msg,
     ifc.SimEvents: sim_events_from_msg,
     ifc.Disturbance: disturbance_from_msg,

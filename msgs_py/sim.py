@@ -16,7 +16,9 @@ from msgs_py.checks import finite_float, integer
 from msgs_py.errors import MessageError
 
 #: Kinds of event the monitor counts (``nodes/sim/events.py``).
-SIM_EVENT_TYPES = ("unintended_contact", "block_contact", "block_lost")
+SIM_EVENT_TYPES = ("unintended_contact", "block_contact", "block_lost", "fault")
+#: Faults the sim can be asked to inject (``/sim/fault``; ``SimFault``).
+SIM_FAULT_KINDS = ("drop", "slip", "miss", "remove_block", "add_block", "camera_noise")
 
 #: What a robot part touching a block is called.
 ROBOT_PARTS = ("arm", "gripper", "finger")
@@ -61,10 +63,10 @@ class SimEvent:
                                "an unintended contact names the robot part; other events do not")
         if self.robot and self.robot not in ROBOT_PARTS:
             raise MessageError("robot", self.robot, f"expected one of {list(ROBOT_PARTS)}")
-        if (self.type == "block_lost") != bool(self.reason):
+        if (self.type in ("block_lost", "fault")) != bool(self.reason):
             raise MessageError("reason", self.reason,
-                               "a lost block has a reason; other events do not")
-        if self.type == "block_lost" and self.manipulated is not None:
+                               "a lost block or a fault has a reason; other events do not")
+        if self.type in ("block_lost", "fault") and self.manipulated is not None:
             raise MessageError("manipulated", self.manipulated, "contacts only")
 
     def to_dict(self) -> dict[str, Any]:
@@ -136,3 +138,28 @@ class Disturbance:
         _block("block", self.block)
         finite_float("dx", self.dx)
         finite_float("dy", self.dy)
+
+
+@dataclass(frozen=True, slots=True)
+class SimFault:
+    """A fault for the sim to inject: ``kind`` (``SIM_FAULT_KINDS``); ``block`` for
+    remove_block / add_block, ``pose`` (x, y, theta in world) for add_block, ``value`` (grey
+    levels) for camera_noise."""
+
+    kind: str
+    block: int | None = None
+    pose: tuple[float, float, float] | None = None
+    value: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in SIM_FAULT_KINDS:
+            raise MessageError("kind", self.kind, f"expected one of {list(SIM_FAULT_KINDS)}")
+        if self.kind in ("remove_block", "add_block"):
+            _block("block", self.block)
+        if self.kind == "add_block":
+            if self.pose is None or len(self.pose) != 3:
+                raise MessageError("pose", self.pose, "add_block needs x, y, theta")
+            for name, v in zip(("pose.x", "pose.y", "pose.theta"), self.pose, strict=True):
+                finite_float(name, v)
+        if self.kind == "camera_noise" and not finite_float("value", self.value) >= 0.0:
+            raise MessageError("value", self.value, "a noise level is >= 0")

@@ -118,6 +118,13 @@ class CameraModel:
         return self.position + s[:, None] * d
 
 
+    def table_view(self, z: float) -> np.ndarray:
+        """(4, 2) x, y where the image's corners look at the plane of height ``z`` (m)."""
+        i = self.intrinsics
+        corners = np.array([[0.0, 0.0], [i.width - 1.0, 0.0], [i.width - 1.0, i.height - 1.0],
+                            [0.0, i.height - 1.0]])
+        return self.intersect_plane_z(corners, z)[:, :2]
+
 # --- the calibration file ------------------------------------------------------------------
 #: What a calibration file holds: the camera pose, as the detector's parameters name it.
 CALIBRATION_PARAMETERS = ("camera_pose.position", "camera_pose.orientation_xyzw")

@@ -48,6 +48,10 @@ class DetectorConfig:
     block_size: float = param(BLOCK_SIZE, "cube side; tags lie in the plane z = block_size",
                               unit="m")
     tag_size: float = param(TAG_SIZE, "side of the tag's black square", unit="m")
+    correct_from_placements: bool = param(
+        True, "compare where the arm reports setting blocks down (/executor/placements) with "
+        "where the camera then sees them, and correct the perceived poses when the two "
+        "disagree (a bumped or roughly calibrated camera); false: publish as calibrated")
     calibration_file: str = param(
         "camera_calibration.yaml", "calibration YAML read when camera_pose.* is not set "
         "(relative paths are under config/)")

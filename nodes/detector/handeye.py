@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from msgs_py import Pose2D, wrap_angle
+from msgs_py import BlockPose, BlockSet, Pose2D, wrap_angle
 from msgs_py.placement import Placement
 
 #: Noise of a perceived position (m) and yaw (rad) after a placement, to weigh the equations.
@@ -152,3 +152,83 @@ def worth_correcting(est: Estimate, samples: Sequence[Sample],
     ok_shift = shift < MIN_ERROR / 2 or shift_sigma <= MAX_RELATIVE_SIGMA * shift
     ok_turn = abs(c.w) < YAW_SIGMA or est.sigma[2] <= MAX_RELATIVE_SIGMA * abs(c.w)
     return ok_shift and ok_turn
+
+
+#: Placements whose pick may have been seen through an older correction are not used: a
+#: pick-and-place takes less than this (s, the placement's stamp after the correction).
+SETTLE_AFTER_CORRECTION_S = 15.0
+#: A detection counts for a placement once the fingers have let go this long (s).
+SEEN_AFTER_RELEASE_S = 0.05
+#: A new estimate replaces the correction in use when it moves a workspace corner this far (m).
+UPDATE_MIN_CHANGE = 0.0002
+
+
+class HandEye:
+    """The detector's side of the hand-eye check: placements in, corrected detections out.
+
+    ``on_placement`` takes what the arm reports it set down; ``correct`` takes each raw
+    detection (in the camera's uncorrected frame), turns pending placements into samples,
+    re-estimates, and returns the detection through the correction in use. ``log`` collects
+    what is worth telling (a correction adopted).
+    """
+
+    def __init__(self, workspace_corners: Sequence[tuple[float, float]],
+                 centre: tuple[float, float]) -> None:
+        self.corners = list(workspace_corners)
+        self.centre = centre
+        self.correction = PlaneCorrection(cx=centre[0], cy=centre[1])
+        self.samples: list[Sample] = []
+        self.pending: list[tuple[Placement, Pose2D]] = []  # (placement, its pick in raw)
+        self.corrected_at_ns = -(10**18)
+        self.log: list[str] = []
+
+    def on_placement(self, placement: Placement) -> None:
+        if placement.stamp_ns < self.corrected_at_ns + SETTLE_AFTER_CORRECTION_S * 1e9:
+            return  # picked while another correction was in use: its pick pose is unreliable
+        self.pending.append((placement, self._raw(placement.picked_from)))
+
+    def _raw(self, corrected: Pose2D) -> Pose2D:
+        """Undo the correction in use: the camera's own reading of a corrected pose."""
+        c = self.correction
+        cos, sin = math.cos(c.w), math.sin(c.w)
+        x, y = corrected.x - c.cx, corrected.y - c.cy
+        return Pose2D(cos * x - sin * y + c.cx + c.dx, sin * x + cos * y + c.cy + c.dy,
+                      wrap_angle(corrected.theta + c.w))
+
+    def correct(self, raw: BlockSet) -> BlockSet:
+        """``raw`` (poses in the camera's calibrated frame) through the correction, after
+        learning from it."""
+        seen = {b.id: b.pose for b in raw.blocks}
+        still = []
+        for placement, picked in self.pending:
+            if raw.stamp_ns < placement.stamp_ns + SEEN_AFTER_RELEASE_S * 1e9:
+                still.append((placement, picked))
+            elif placement.block in seen:
+                self.samples.append(Sample(picked, placement.pose, placement.closing_axis_yaw,
+                                           seen[placement.block]))
+                self._update(raw.stamp_ns)
+        self.pending = still
+        if self.correction == PlaneCorrection(cx=self.centre[0], cy=self.centre[1]):
+            return raw
+        return BlockSet(tuple(BlockPose(b.id, *_xyt(self.correction.apply(b.pose)))
+                              for b in raw.blocks),
+                        raw.stamp_ns, raw.frame_id, raw.block_size, raw.missing,
+                        raw.reprojection_px)
+
+    def _update(self, stamp_ns: int) -> None:
+        est = estimate(self.samples, self.centre)
+        if est is None or not worth_correcting(est, self.samples, self.corners):
+            return
+        change = max(abs(est.correction.error_at(x, y) - self.correction.error_at(x, y))
+                     for x, y in self.corners)
+        if change < UPDATE_MIN_CHANGE:
+            return
+        self.correction = est.correction
+        self.corrected_at_ns = stamp_ns
+        self.log.append(f"perception corrected from {est.samples} placements of the arm: "
+                        f"{est.correction.describe()} (RMS residual "
+                        f"{est.rms_residual * 1e3:.2f} mm)")
+
+
+def _xyt(p: Pose2D) -> tuple[float, float, float]:
+    return p.x, p.y, p.theta

@@ -15,7 +15,7 @@ import sys
 import time
 from collections import deque
 
-from densepack_interfaces.msg import BlockPoseArray
+from densepack_interfaces.msg import BlockPoseArray, Placement
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
@@ -26,7 +26,7 @@ from visualization_msgs.msg import MarkerArray
 
 from msgs_py import MessageError
 from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
-from msgs_py.interface_codecs import block_set_to_msg
+from msgs_py.interface_codecs import block_set_to_msg, placement_from_msg
 from msgs_py.ros_codecs import block_set_to_markers, stamp_to_ns
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
@@ -34,6 +34,7 @@ from nodes.common.qos import RELIABLE, camera_subscription_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
+from nodes.detector.handeye import HandEye
 from nodes.detector.pipeline import BlockDetector
 from nodes.detector.sync import StampPairer
 
@@ -74,6 +75,10 @@ class DetectorNode(Node):
         self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, camera_qos,
                                  callback_group=group)
         self.create_service(Trigger, "~/reset", self.on_reset, callback_group=group)
+        self.hand_eye: HandEye | None = None  # made with the first frame (the camera's view)
+        if self.config.correct_from_placements:
+            self.create_subscription(Placement, "/executor/placements", self.on_placement,
+                                     RELIABLE, callback_group=group)
         self.create_timer(WATCHDOG_PERIOD_S, self.watchdog, callback_group=group)
         # A sim reset restarts simulated time: frames then carry older stamps, yet are new.
         self._clock_jumped = False
@@ -93,6 +98,15 @@ class DetectorNode(Node):
     def on_info(self, msg: CameraInfo) -> None:
         self._follow_clock_jump()
         self._handle(self.pairer.add_info(stamp_to_ns(msg.header.stamp), msg))
+
+    def on_placement(self, msg: Placement) -> None:
+        try:
+            placement = placement_from_msg(msg)
+        except (MessageError, ValueError) as err:
+            self.warn("placement", f"ignoring a malformed /executor/placements: {err}")
+            return
+        if self.hand_eye is not None:
+            self.hand_eye.on_placement(placement)
 
     def on_reset(self, request: Trigger.Request, response: Trigger.Response):
         self.detector.reset()
@@ -133,19 +147,33 @@ class DetectorNode(Node):
                                    f"differs from camera_info ({intrinsics.width} x "
                                    f"{intrinsics.height})")
             result = self.detector.process(pixels, intrinsics, stamp_ns, image_msg.encoding)
-            detected = block_set_to_msg(result.blocks)
+            blocks = self._corrected(result.blocks, intrinsics)
+            detected = block_set_to_msg(blocks)
         except (MessageError, ValueError) as err:
             self.warn("frame", f"frame {stamp_ns} ns skipped: {err}")
             return
         for text in result.warnings:
             self.warn(text.split(":")[0], f"frame {stamp_ns} ns: {text}")
         self.publisher.publish(detected)
-        self.markers.publish(block_set_to_markers(result.blocks))
+        self.markers.publish(block_set_to_markers(blocks))
         self.frames += 1
         self._last_frame_wall = time.monotonic()
         self.get_logger().debug(
             f"frame {stamp_ns} ns: {len(result.blocks.blocks)} blocks, missing "
             f"{list(result.blocks.missing)}, {1000 * result.detect_s:.1f} ms")
+
+    def _corrected(self, raw, intrinsics):
+        """The frame's blocks through the hand-eye correction (when enabled)."""
+        if not self.config.correct_from_placements:
+            return raw
+        if self.hand_eye is None:
+            view = self.detector.camera(intrinsics).table_view(self.config.block_size)
+            self.hand_eye = HandEye(view, tuple(view.mean(axis=0)))
+        blocks = self.hand_eye.correct(raw)
+        for line in self.hand_eye.log:
+            self.get_logger().warning(line)
+        self.hand_eye.log.clear()
+        return blocks
 
     def watchdog(self) -> None:
         now = time.monotonic()

@@ -52,6 +52,10 @@ class ExecutorConfig:
     blend_radius: float = param(
         0.025, "lift -> carry and retreat -> travel corners are rounded within this radius "
         "(a carried block still clears the others by 1.2 cm)", unit="m")
+    pick_clearance: float = param(
+        0.016, "finger clearance on each side when going down around a block to pick it, where "
+        "no neighbour is in the way (else the plan's approach_clearance): room for a camera "
+        "that is off by a centimetre until perception and arm are brought to agree", unit="m")
     gripper_settle_s: float = param(
         0.3, "wait after a gripper command when the gripper reports no finger positions "
         "(with them, the executor waits until the fingers reach the opening or stop)",

@@ -31,10 +31,13 @@ parks with empty fingers and every block left where it stands.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
-from msgs_py import BlockSet, ExecutorStatus, Plan, Pose2D
-from msgs_py.cell import GripperGeometry
+from msgs_py import BlockSet, ExecutorStatus, PickPlace, Plan, Pose2D, Workspace
+from msgs_py.actions import Action
+from msgs_py.cell import GRIPPER_STROKE, GripperGeometry, table_margin_of
+from msgs_py.status import GripperStatus
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.faults import FaultHandling
 from nodes.executor.ledger import TimeLedger
@@ -46,10 +49,10 @@ from nodes.executor.primitives import (
     look_steps,
     park_steps,
 )
-from nodes.executor.recovery import holds_block
+from nodes.executor.recovery import fingers_clear, holds_block
 from nodes.executor.states import TRANSITIONS, After, Held, Outputs, Purpose, State
 from nodes.executor.steps import Step, StepRunner
-from nodes.executor.supervision import GraspSupervisor, GripperReading
+from nodes.executor.supervision import GraspSupervisor
 from nodes.executor.verify import Deviation, deviations, goal_errors
 
 #: A tick advances the running script by at most this many tick periods (see ``_run``).
@@ -77,7 +80,7 @@ class ExecutorCore(FaultHandling):
         self.commanded: ToolPose | None = None  # last setpoint streamed
         self.finger_gap: float | None = None
         self._new_gaps: list[tuple[float, float]] = []  # (time, gap) since the last tick
-        self._new_readings: list[GripperReading] = []
+        self._new_readings: list[GripperStatus] = []
         self._checked_fingers = False
         self.last_error = ""
         self.detail = ""
@@ -125,10 +128,10 @@ class ExecutorCore(FaultHandling):
         if stamp_s is not None:
             self._new_gaps.append((stamp_s, gap))
 
-    def on_gripper(self, reading: GripperReading) -> None:
+    def on_gripper(self, reading: GripperStatus) -> None:
         """A gripper status (the 2F-85 driver's): position, request, object detection."""
         self.finger_gap = reading.gap
-        self._new_gaps.append((reading.stamp, reading.gap))
+        self._new_gaps.append((reading.stamp_ns * 1e-9, reading.gap))
         self._new_readings.append(reading)
 
     def on_frame_taken(self, stamp_ns: int) -> None:
@@ -372,7 +375,8 @@ class ExecutorCore(FaultHandling):
         action = plan.actions[self.index]
         start = self.expected.get(action.block)
         if start is not None:
-            self._start_runner(hover_steps(action, start, self.geo, self.cfg), After.HOVERING)
+            self._start_runner(hover_steps(action, start, self.geo, self.cfg,
+                                           self._pick_opening(action, start)), After.HOVERING)
 
     def _wait_for_detection(self, now: float) -> None:
         if self._frame_taken:
@@ -529,7 +533,8 @@ class ExecutorCore(FaultHandling):
         self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
                       f"block {action.block}"
         self._log(self.detail)
-        steps = action_steps(action, start, self.geo, self.cfg)
+        steps = action_steps(action, start, self.geo, self.cfg,
+                             self._pick_opening(action, start))
         self._picked_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
         if self._looks_after(self.index) and plan.scene is not None:
@@ -537,6 +542,25 @@ class ExecutorCore(FaultHandling):
             steps += look_steps(self.cfg, plan.scene.workspace,
                                 ToolPose(end.x, end.y, self.cfg.travel_height, 0.0))
         self._start_runner(steps, After.ACTION_DONE)
+
+    def _pick_opening(self, action: Action, start: Pose2D) -> float | None:
+        """The fingers open wider than the plan asks (``pick_clearance``) to go down around a
+        block whose neighbours leave room: a perception a centimetre off still grips it."""
+        plan = self.plan
+        if not isinstance(action, PickPlace) or plan is None or plan.scene is None:
+            return None
+        wide = dataclasses.replace(self.geo, approach_clearance=max(
+            self.cfg.pick_clearance, self.geo.approach_clearance))
+        if wide.approach_opening > GRIPPER_STROKE - 0.001:
+            return None
+        around = {**self.expected, action.block: start}
+        margin = table_margin_of(plan.params)
+        ws = plan.scene.workspace
+        table = Workspace(ws.x_min - margin, ws.x_max + margin, ws.y_min - margin,
+                          ws.y_max + margin)
+        if not fingers_clear(around, action.block, wide, action.grasp, table):
+            return None
+        return wide.approach_opening
 
     def _looks_after(self, index: int) -> bool:
         """Whether the camera looks from the look pose after action ``index`` (the last one is

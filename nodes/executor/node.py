@@ -19,7 +19,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from densepack_interfaces.msg import BlockPoseArray
+from densepack_interfaces.msg import BlockPoseArray, GripperStatus, Placement
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
@@ -34,6 +34,8 @@ from msgs_py.checks import finite_float
 from msgs_py.interface_codecs import (
     block_set_from_msg,
     executor_status_to_msg,
+    gripper_status_from_msg,
+    placement_to_msg,
     plan_from_msg,
     planner_status_from_msg,
 )
@@ -52,10 +54,12 @@ TOPICS = """\
 subscribes: /plan (densepack_interfaces/Plan, latched),
             /blocks/detected (densepack_interfaces/BlockPoseArray),
             /planner/status (densepack_interfaces/PlannerStatus, latched),
-            /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState)
+            /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState),
+            /gripper/status (densepack_interfaces/GripperStatus: grasp supervision)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /gripper/command (std_msgs/Float64),
             /executor/status (densepack_interfaces/ExecutorStatus, latched),
+            /executor/placements (densepack_interfaces/Placement: blocks set down),
             /goal_layout (densepack_interfaces/GoalLayout, latched: a /rearrange goal's layout)
 action:     /rearrange (densepack_interfaces/action/Rearrange)
 services:   /executor/start, /executor/stop (std_srvs/Trigger)
@@ -100,6 +104,8 @@ class ExecutorNode(Node):
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
         self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
         self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
+        self.create_subscription(GripperStatus, "/gripper/status", self.on_gripper, RELIABLE)
+        self.placement_pub = self.create_publisher(Placement, "/executor/placements", RELIABLE)
         self.create_subscription(PlannerStatusMsg, "/planner/status", self.on_planner_status,
                                  LATCHED)
         self.create_service(Trigger, "/executor/start", self.on_start)
@@ -160,6 +166,12 @@ class ExecutorNode(Node):
             with self.lock:
                 self.core.on_finger_gap(gap, stamp if stamp > 0.0 else None)
 
+    def on_gripper(self, msg: GripperStatus) -> None:
+        status = self._decoded(msg, gripper_status_from_msg, "/gripper/status")
+        if status is not None:
+            with self.lock:
+                self.core.on_gripper(status)
+
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
             response.message = self.core.request_start()
@@ -184,6 +196,8 @@ class ExecutorNode(Node):
             self.setpoint_pub.publish(self._setpoint_msg(out.setpoint, now))
         if out.gripper is not None:
             self.gripper_pub.publish(Float64(data=float(out.gripper)))
+        if out.placement is not None:
+            self.placement_pub.publish(placement_to_msg(out.placement))
         if out.trigger_camera:
             self._call(self.camera, "/camera/trigger", self._on_frame_taken)
         if out.request_replan:

@@ -38,9 +38,13 @@ def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
 
 
 def pick_place_steps(
-    action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
+    action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
+    pick_opening: float | None = None,
 ) -> list[Step]:
-    """Steps for ``action`` with the block perceived at ``start``."""
+    """Steps for ``action`` with the block perceived at ``start``; the fingers open to
+    ``pick_opening`` to go down around it (default: the plan's approach opening) and to the
+    plan's approach opening to let it go."""
+    opening = geo.approach_opening if pick_opening is None else pick_opening
     pick_yaw = tool_yaw(start.theta + action.grasp * math.pi / 2, cfg)
     turn = math.remainder(action.to.theta - start.theta, 2 * math.pi)
     place_yaw = tool_yaw(pick_yaw + turn, cfg)
@@ -49,10 +53,10 @@ def pick_place_steps(
     tag = f"block {action.block}"
     r = cfg.blend_radius
     return [
-        Grip(geo.approach_opening, 0.0, f"{tag}: open", wait=False),
+        Grip(opening, 0.0, f"{tag}: open", wait=False),
         Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r),
         Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False),
-        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: fingers open"),
+        Grip(opening, cfg.gripper_settle_s, f"{tag}: fingers open"),
         *_settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend"),
         Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block),
         Move(pick, cfg.vertical_limits, f"{tag}: lift", blend=r),
@@ -137,10 +141,10 @@ def look_steps(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> lis
 
 
 def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
-                cfg: ExecutorConfig) -> list[Step]:
+                cfg: ExecutorConfig, pick_opening: float | None = None) -> list[Step]:
     """The first moves of ``action``, up to above its block at travel height: safe to make
     before the world is judged (nothing is touched), so they overlap the camera's wait."""
-    steps = action_steps(action, start, geo, cfg)
+    steps = action_steps(action, start, geo, cfg, pick_opening)
     last = next(k for k, step in enumerate(steps)
                 if isinstance(step, Move) and step.label.endswith(("travel above",
                                                                    "travel behind")))
@@ -148,10 +152,11 @@ def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
 
 
 def action_steps(
-    action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
+    action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
+    pick_opening: float | None = None,
 ) -> list[Step]:
     if isinstance(action, PickPlace):
-        return pick_place_steps(action, start, geo, cfg)
+        return pick_place_steps(action, start, geo, cfg, pick_opening)
     return push_steps(action, start, geo, cfg)
 
 

@@ -88,25 +88,29 @@ def outside(perceived: Mapping[int, Pose2D], workspace: Workspace, block_size: f
                   if not workspace.contains_square(pose, block_size))
 
 
+def fingers_clear(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry,
+                  grasp: int, table: Workspace, margin: float = 0.004) -> bool:
+    """Whether the fingers of ``grasp`` (0: closing along the block's x, 1: along its y),
+    open as ``geo`` says, touch no other perceived block (by ``margin``) and stand on the
+    table ``table``."""
+    pose = perceived[block]
+    fingers = grasp_finger_corners(geo, pose.x, pose.y, pose.theta, grasp)
+    if not _inside(fingers, table, 0.0).all():
+        return False
+    others = [q for b, q in perceived.items() if b != block]
+    if not others:
+        return True
+    p = np.array([[q.x, q.y, q.theta] for q in others])
+    obstacles = shapely.STRtree(shapely.buffer(
+        to_polygons(block_corners(p[:, 0], p[:, 1], p[:, 2], geo.block_size)), margin))
+    return not len(obstacles.query(to_polygons(fingers), predicate="intersects")[0])
+
+
 def free_grasp(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry,
                table: Workspace, margin: float = 0.004) -> int | None:
-    """A grasp (0: closing along the block's x, 1: along its y) whose fingers, open for the
-    approach, touch no other perceived block and stand on the table; None when neither."""
-    pose = perceived[block]
-    others = [q for b, q in perceived.items() if b != block]
-    obstacles = None
-    if others:
-        p = np.array([[q.x, q.y, q.theta] for q in others])
-        obstacles = shapely.STRtree(shapely.buffer(
-            to_polygons(block_corners(p[:, 0], p[:, 1], p[:, 2], geo.block_size)), margin))
-    for grasp in (0, 1):
-        fingers = grasp_finger_corners(geo, pose.x, pose.y, pose.theta, grasp)
-        if not _inside(fingers, table, 0.0).all():
-            continue
-        if obstacles is None or not len(obstacles.query(to_polygons(fingers),
-                                                         predicate="intersects")[0]):
-            return grasp
-    return None
+    """A grasp whose fingers are clear (``fingers_clear``); None when neither is."""
+    return next((g for g in (0, 1) if fingers_clear(perceived, block, geo, g, table, margin)),
+                None)
 
 
 def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,

@@ -22,25 +22,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-
-class ObjectStatus(enum.IntEnum):
-    """The 2F-85's object detection (``gOBJ``), as the sim's gripper reports it."""
-
-    MOVING = 0  #: fingers moving towards the requested position, nothing detected
-    STOPPED_OPENING = 1  #: stopped on an object while opening
-    STOPPED_CLOSING = 2  #: stopped on an object while closing: something is held
-    AT_POSITION = 3  #: reached the requested position: no object
-
-
-@dataclass(frozen=True, slots=True)
-class GripperReading:
-    """One gripper status: time (s), measured pad gap (m), the gap last requested (m), and
-    the object detection."""
-
-    stamp: float
-    gap: float
-    requested: float
-    status: ObjectStatus
+from msgs_py.status import GripperStatus
 
 
 class Expect(enum.Enum):
@@ -90,7 +72,7 @@ class GraspSupervisor:
         self.block: int | None = None
         self.commanded: float | None = None  #: the executor's own last gripper command
         self._commanded_at = 0.0
-        self.last: GripperReading | None = None
+        self.last: GripperStatus | None = None
 
     # --- what to expect ------------------------------------------------------------------------
     def commanding(self, opening: float, at: float) -> None:
@@ -113,66 +95,66 @@ class GraspSupervisor:
         self.expect, self.block = Expect.NOTHING, None
 
     # --- what the fingers hold now -------------------------------------------------------------
-    def holds_block(self, reading: GripperReading | None = None) -> bool:
+    def holds_block(self, reading: GripperStatus | None = None) -> bool:
         """The fingers stopped closing on something a block wide."""
         r = reading or self.last
-        return r is not None and r.status is ObjectStatus.STOPPED_CLOSING and self._block_wide(r)
+        return r is not None and r.holds_object and self._block_wide(r)
 
-    def holds_something(self, reading: GripperReading | None = None) -> bool:
+    def holds_something(self, reading: GripperStatus | None = None) -> bool:
         r = reading or self.last
-        return r is not None and r.status is ObjectStatus.STOPPED_CLOSING
+        return r is not None and r.holds_object
 
-    def _block_wide(self, r: GripperReading) -> bool:
+    def _block_wide(self, r: GripperStatus) -> bool:
         return self.block_size - HELD_BELOW <= r.gap <= self.block_size + HELD_ABOVE
 
     # --- judging -----------------------------------------------------------------------------
-    def _ours(self, reading: GripperReading) -> bool:
+    def _ours(self, reading: GripperStatus) -> bool:
         """The request the gripper reports is the executor's, or comes from before its last
         command reached the gripper."""
         assert self.commanded is not None
-        return (abs(reading.requested - self.commanded) <= COMMAND_TOL
-                or reading.stamp <= self._commanded_at + COMMAND_IN_TRANSIT_S)
+        return (abs(reading.requested_gap - self.commanded) <= COMMAND_TOL
+                or reading.stamp_ns * 1e-9 <= self._commanded_at + COMMAND_IN_TRANSIT_S)
 
-    def _dropped(self, r: GripperReading) -> bool:
+    def _dropped(self, r: GripperStatus) -> bool:
         """The held block is gone: the force-limited fingers close past its width at once
         (within a report or two). A block sliding in the pads makes the gripper report
         "moving" for a moment, but the gap stays the block's width: that is not a drop."""
         return not self._block_wide(r)
 
-    def after_grip(self, reading: GripperReading) -> GraspFault | None:
+    def after_grip(self, reading: GripperStatus) -> GraspFault | None:
         """Judge a finished grip: a block of the expected width is held, or a miss."""
         self.last = reading
         if self.holds_block(reading):
             return None
-        held = reading.status is ObjectStatus.STOPPED_CLOSING
+        held = reading.holds_object
         what = (f"the fingers stopped at {reading.gap * 1e3:.1f} mm, not on a "
                 f"{self.block_size * 1e3:.1f} mm block" if held
                 else f"the fingers closed to {reading.gap * 1e3:.1f} mm on nothing")
         return GraspFault(FaultKind.MISSED, what, holding_something=held)
 
-    def after_release(self, reading: GripperReading) -> GraspFault | None:
+    def after_release(self, reading: GripperStatus) -> GraspFault | None:
         """Judge a finished release: the fingers are open and empty."""
         self.last = reading
-        if reading.status is ObjectStatus.STOPPED_CLOSING:
+        if reading.holds_object:
             return GraspFault(FaultKind.NOT_RELEASED,
                               f"the fingers still hold something ({reading.gap * 1e3:.1f} mm)",
                               holding_something=True)
         return None
 
-    def on_reading(self, reading: GripperReading) -> GraspFault | None:
+    def on_reading(self, reading: GripperStatus) -> GraspFault | None:
         """A reading while a script runs; a fault when the fingers are not as expected."""
         self.last = reading
         if self.commanded is not None and not self._ours(reading):
             return GraspFault(
                 FaultKind.MISFIRE,
-                f"the gripper was sent to {reading.requested * 1e3:.1f} mm by someone else "
+                f"the gripper was sent to {reading.requested_gap * 1e3:.1f} mm by someone else "
                 f"(the executor asked for {self.commanded * 1e3:.1f} mm)",
-                holding_something=reading.status is ObjectStatus.STOPPED_CLOSING)
+                holding_something=reading.holds_object)
         if self.expect is Expect.HOLD and self._dropped(reading):
             return GraspFault(FaultKind.DROPPED,
                               f"block {self.block} left the fingers (gap "
                               f"{reading.gap * 1e3:.1f} mm)", holding_something=False)
-        if self.expect is Expect.OPEN and reading.status is ObjectStatus.STOPPED_CLOSING:
+        if self.expect is Expect.OPEN and reading.holds_object:
             return GraspFault(FaultKind.MISFIRE,
                               f"the fingers closed on something ({reading.gap * 1e3:.1f} mm)",
                               holding_something=True)

@@ -25,7 +25,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from densepack_interfaces.msg import BlockPoseArray, Disturbance, GripperStatus, SimEvents
+from densepack_interfaces.msg import (
+    BlockPoseArray,
+    Disturbance,
+    GripperStatus,
+    SimEvents,
+    SimFault,
+)
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -117,6 +123,8 @@ class SimNode(Node):
         # Volatile on purpose: it matches the executor whether it latches its status or not.
         self.create_subscription(ExecutorStatusMsg, "/executor/status", self._on_status,
                                  RELIABLE, callback_group=group)
+        self.create_subscription(SimFault, "/sim/fault", self._on_fault, RELIABLE,
+                                 callback_group=group)
         self.create_subscription(Disturbance, "/sim/disturb", self._on_disturb, RELIABLE,
                                  callback_group=group)
         self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
@@ -175,6 +183,25 @@ class SimNode(Node):
                 self.world.disturb(nudge.block, nudge.dx, nudge.dy)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/disturb refused: {err}")
+        self._queue(apply)
+
+    def _on_fault(self, msg: SimFault) -> None:
+        """Fault injection: arm a drop, slip or miss for the next action, take a block out,
+        put one in, or change the camera's noise."""
+        try:
+            fault = ic.sim_fault_from_msg(msg)
+        except (MessageError, ValueError) as err:
+            self.get_logger().warning(f"/sim/fault refused: {err}")
+            return
+
+        def apply() -> None:
+            try:
+                self.world.inject(fault)
+            except ValueError as err:
+                self.get_logger().warning(f"/sim/fault refused: {err}")
+                return
+            self.get_logger().warning(f"fault injected: {fault.kind} "
+                                      f"{'' if fault.block is None else fault.block}")
         self._queue(apply)
 
     def _on_blackout(self, msg: Float64) -> None:

@@ -16,6 +16,7 @@ import pybullet
 from pybullet_utils import bullet_client
 
 from msgs_py import BlockPose, Scene
+from msgs_py.sim import SimFault
 from nodes.common.paths import asset_path
 from nodes.sim import robot_model as rm
 from nodes.sim.camera import SimCamera, render_rgb
@@ -257,6 +258,21 @@ class SimWorld:
             raise ValueError(f"unknown armed fault '{kind}'; known: {sorted(ARMED_FAULTS)}")
         self.armed = kind
 
+    def inject(self, fault: SimFault) -> None:
+        """Carry out a fault asked for on /sim/fault (``msgs_py.sim.SimFault``)."""
+        if fault.kind in ARMED_FAULTS:
+            self.arm_fault(fault.kind)
+        elif fault.kind == "remove_block":
+            assert fault.block is not None
+            self.remove_block(fault.block)
+            self._fault_fired(fault.kind, fault.block)
+        elif fault.kind == "add_block":
+            assert fault.block is not None and fault.pose is not None
+            self.add_block(BlockPose(fault.block, *fault.pose))
+            self._fault_fired(fault.kind, fault.block)
+        elif fault.kind == "camera_noise":
+            self.noise_std = fault.value
+
     def _check_armed(self) -> None:
         kind = self.armed
         if kind in ("drop", "slip"):
@@ -278,9 +294,10 @@ class SimWorld:
                     break
 
     def _fault_fired(self, kind: str, block: int) -> None:
-        self.armed = None
-        self.monitor.events.append({"t": round(self.time_s, 4), "type": f"fault_{kind}",
-                                    "block": block})
+        if self.armed == kind:
+            self.armed = None
+        self.monitor.events.append({"t": round(self.time_s, 4), "type": "fault",
+                                    "block": block, "reason": kind})
 
     def held_block(self) -> int | None:
         """The block both fingers touch (the one in the gripper), or None."""

@@ -8,11 +8,27 @@ success (every block within 3 mm / 2 deg of its goal by ground truth, none lost,
 succeeded), final errors, actions executed vs planned, corrections (replans), unintended
 contacts, lost blocks, simulated and wall time.
 
-Faults, injected once per scene: ``executor_restart`` / ``planner_restart`` (SIGKILL the
-process when action 2 is running, start it again 2 s later; a restarted executor has lost
-the goal, which the client sends again once its feedback has gone silent), ``nudge`` (a
-hand pushes an already placed block about 1 cm between two actions), ``camera_drop``
-(camera frames dropped for 8 simulated seconds while the executor is observing).
+Faults, injected once per scene (``--fault all`` runs every kind), the kinds a real cell
+meets (what happens; when):
+
+- ``executor_restart``, ``planner_restart``, ``detector_restart``: the process is SIGKILLed
+  and started again 2 s later (a restarted executor has lost the goal: the client sends it
+  again); while action 2 runs.
+- ``nudge``: a hand pushes an already placed block about 1 cm; between actions 2 and 3.
+- ``knock``: the first placed block is knocked 13 mm while action 3 runs.
+- ``camera_drop``: camera frames dropped for 8 simulated seconds; observing after action 1.
+- ``grasp_miss``: the block is knocked aside as the open fingers hover over it; ``slip``:
+  the held block slides in the fingers (slippery pads for 50 ms); ``drop``: the held block
+  falls out of the fingers. Armed for the next action after action 1.
+- ``misfire``: another program closes the gripper to 20 mm; while action 2 runs.
+- ``remove``: a person takes away a block not yet placed; the run must stop naming it, the
+  arm parked with empty fingers, the rest left as it stands (this cell does not finish a
+  goal that names a block it no longer has); after action 2.
+- ``add``: a person puts an unknown block (tag 40) onto a free spot, an obstacle for the
+  rest of the run; after action 2.
+- ``camera_noise``: the camera's read noise becomes 20 grey levels (std); from the start.
+- ``calibration``: the detector's camera pose is 5 mm and 0.5 deg (a tilt) off the true one;
+  from the start.
 """
 
 from __future__ import annotations
@@ -25,7 +41,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from msgs_py import save_plan, save_scene
+from msgs_py import Scene, save_plan, save_scene
+from msgs_py.sim import SimFault as SimFaultRecord
 from nodes.tools.cell_run import (
     CellRun,
     RunMonitor,
@@ -36,7 +53,14 @@ from nodes.tools.cell_run import (
 )
 from nodes.tools.cell_run import run as run_cell
 
-FAULTS = ("none", "executor_restart", "planner_restart", "nudge", "camera_drop")
+FAULTS = ("none", "executor_restart", "planner_restart", "detector_restart", "nudge",
+          "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
+          "camera_noise", "calibration")
+#: The calibration fault: the detector's camera 3, -4, 0 mm off and tilted 0.5 deg.
+CALIBRATION_SHIFT_M = (0.003, -0.004, 0.0)
+CALIBRATION_TILT_DEG = 0.5
+#: The block a person puts into the cell (a tag id no scene of the benchmark uses).
+ADDED_BLOCK = 40
 SUCCESS_POS_M = 0.003
 SUCCESS_YAW_DEG = 2.0
 
@@ -61,10 +85,10 @@ def add_arguments(parser) -> None:
 
 
 class FaultInjector:
-    """Injects one fault into a running cell when the executor's progress calls for it."""
+    """Injects one fault into a running cell when the goal's progress calls for it."""
 
-    def __init__(self, name: str, cell: CellRun, monitor: RunMonitor) -> None:
-        from densepack_interfaces.msg import Disturbance
+    def __init__(self, name: str, cell: CellRun, monitor: RunMonitor, scene: Scene) -> None:
+        from densepack_interfaces.msg import Disturbance, SimFault
         from std_msgs.msg import Float64
 
         from nodes.common.qos import RELIABLE
@@ -72,11 +96,16 @@ class FaultInjector:
         self.name = name
         self.cell = cell
         self.monitor = monitor
-        self.done = name == "none"
-        self.note = ""
+        self.scene = scene
+        self.done = name in ("none", "calibration")  # the calibration is wrong from the start
+        self.note = "detector camera pose 5 mm / 0.5 deg off" if name == "calibration" else ""
+        self.removed: int | None = None
         self._restart_at: float | None = None
-        self._disturb = monitor.node.create_publisher(Disturbance, "/sim/disturb", RELIABLE)
-        self._blackout = monitor.node.create_publisher(Float64, "/sim/camera_blackout", RELIABLE)
+        node = monitor.node
+        self._disturb = node.create_publisher(Disturbance, "/sim/disturb", RELIABLE)
+        self._blackout = node.create_publisher(Float64, "/sim/camera_blackout", RELIABLE)
+        self._fault = node.create_publisher(SimFault, "/sim/fault", RELIABLE)
+        self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
         self._float = Float64
 
     def __call__(self, monitor: RunMonitor, wall: float) -> None:
@@ -90,27 +119,95 @@ class FaultInjector:
         status = monitor.feedback  # the goal's progress
         if status is None:
             return
-        if self.name in ("executor_restart", "planner_restart") and (
-                status.state == "running" and status.action_index >= 2):
-            node = self.name.split("_")[0]
+        running, observing = status.state == "running", status.state == "observing"
+        k = status.action_index
+        name = self.name
+        if name.endswith("_restart") and running and k >= 2:
+            node = name.split("_")[0]
             self.cell.kill(node)
             self._restart_at = wall + 2.0
-            self.done = True
-            self.note = f"{node} killed during action {status.action_index}"
-        elif self.name == "nudge" and (
-                status.state == "observing" and status.action_index >= 2 and monitor.plans):
-            from msgs_py.interface_codecs import disturbance_to_msg
-            from msgs_py.sim import Disturbance
-
-            block = monitor.plans[0].actions[0].block
-            self._disturb.publish(disturbance_to_msg(Disturbance(block, 0.008, 0.006)))
-            self.done = True
-            self.note = f"block {block} nudged by (8, 6) mm after action {status.action_index}"
-        elif self.name == "camera_drop" and (
-                status.state == "observing" and status.action_index >= 1):
+            self._fired(f"{node} killed during action {k}")
+        elif name == "nudge" and observing and k >= 2 and monitor.plans:
+            self._nudge(monitor.plans[0].actions[0].block, 0.008, 0.006, f"after action {k}")
+        elif name == "knock" and running and k >= 3 and monitor.plans:
+            self._nudge(monitor.plans[0].actions[0].block, 0.010, -0.008, f"during action {k}")
+        elif name == "camera_drop" and observing and k >= 1:
             self._blackout.publish(self._float(data=8.0))
-            self.done = True
-            self.note = f"camera frames dropped for 8 s after action {status.action_index}"
+            self._fired(f"camera frames dropped for 8 s after action {k}")
+        elif name in ("grasp_miss", "slip", "drop") and observing and k >= 1:
+            self._sim_fault(SimFaultRecord(name.removeprefix("grasp_")),
+                            f"{name} armed after action {k}")
+        elif name == "misfire" and running and k >= 2:
+            self._gripper.publish(self._float(data=0.02))
+            self._fired(f"a stray close to 20 mm during action {k}")
+        elif name == "remove" and observing and k >= 2 and monitor.plans:
+            self.removed = monitor.plans[-1].actions[-1].block
+            self._sim_fault(SimFaultRecord("remove_block", self.removed),
+                            f"block {self.removed} taken away after action {k}")
+        elif name == "add" and observing and k >= 2:
+            x, y = free_spot_in(self.scene)
+            self._sim_fault(SimFaultRecord("add_block", ADDED_BLOCK, (x, y, 0.3)),
+                            f"block {ADDED_BLOCK} put down at ({x:.3f}, {y:.3f}) after "
+                            f"action {k}")
+        elif name == "camera_noise":
+            self._sim_fault(SimFaultRecord("camera_noise", value=20.0),
+                            "camera read noise 20 grey levels from the start")
+
+    def _fired(self, note: str) -> None:
+        self.done = True
+        self.note = note
+
+    def _nudge(self, block: int, dx: float, dy: float, when: str) -> None:
+        from msgs_py.interface_codecs import disturbance_to_msg
+        from msgs_py.sim import Disturbance
+
+        self._disturb.publish(disturbance_to_msg(Disturbance(block, dx, dy)))
+        self._fired(f"block {block} nudged by ({dx * 1e3:.0f}, {dy * 1e3:.0f}) mm {when}")
+
+    def _sim_fault(self, fault: SimFaultRecord, note: str) -> None:
+        from msgs_py.interface_codecs import sim_fault_to_msg
+
+        self._fault.publish(sim_fault_to_msg(fault))
+        self._fired(note)
+
+
+def free_spot_in(scene: Scene) -> tuple[float, float]:
+    """The workspace point farthest from every start block and goal slot (where a person
+    puts a block down out of the way)."""
+    import numpy as np
+
+    ws, s = scene.workspace, scene.block_size
+    xs = np.linspace(ws.x_min + s, ws.x_max - s, 21)
+    ys = np.linspace(ws.y_min + s, ws.y_max - s, 21)
+    gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
+    taken = [(b.x, b.y) for b in scene.blocks]
+    if scene.goal is not None:
+        taken += [(p.x, p.y) for p in scene.goal.slot_poses(s)]
+    t = np.array(taken)
+    clearance = np.min(np.hypot(gx[:, None] - t[None, :, 0], gy[:, None] - t[None, :, 1]), axis=1)
+    k = int(np.argmax(clearance))
+    return float(gx[k]), float(gy[k])
+
+
+def calibration_off_args() -> tuple[str, ...]:
+    """ROS arguments that give the detector a camera pose CALIBRATION_SHIFT_M and
+    CALIBRATION_TILT_DEG (about the camera's own x axis) off config/camera_calibration.yaml."""
+    import math
+
+    from nodes.common.paths import config_path
+    from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
+    from nodes.detector.camera_model import load_camera_pose
+
+    pose = load_camera_pose(config_path("camera_calibration.yaml"))
+    import numpy as np
+
+    a = math.radians(CALIBRATION_TILT_DEG)
+    tilt = [[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]]
+    rotation = quaternion_to_matrix(pose.orientation_xyzw) @ np.array(tilt)
+    quat = matrix_to_quaternion(rotation)
+    position = [p + d for p, d in zip(pose.position, CALIBRATION_SHIFT_M, strict=True)]
+    return ("-p", f"detector:camera_pose.position:={[round(v, 6) for v in position]}",
+            "-p", f"detector:camera_pose.orientation_xyzw:={[round(float(v), 8) for v in quat]}")
 
 
 def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float,
@@ -129,9 +226,10 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
     stop_cells_on_sigterm()
     try:
         with open(workdir / f"cell_{blocks}_{seed}_{fault}.log", "w") as log:
-            cell = CellRun(scene_file, log)
+            extra = calibration_off_args() if fault == "calibration" else ()
+            cell = CellRun(scene_file, log, extra_ros_args=extra)
             monitor = RunMonitor(context)
-            injector = FaultInjector(fault, cell, monitor)
+            injector = FaultInjector(fault, cell, monitor, scene)
             cell.start()
             try:
                 result = run_cell(cell, monitor, layout, timeout, injector)
@@ -147,13 +245,19 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
         rclpy.try_shutdown(context=context)
     for k, plan in enumerate(monitor.plans):
         save_plan(plan, workdir / f"plan_{blocks}_{seed}_{fault}_{k}.json")
-    metrics.update(seed=seed, fault=fault, success=is_success(metrics))
+    metrics.update(seed=seed, fault=fault, removed=injector.removed)
+    metrics["success"] = is_success(metrics)
     (workdir / f"metrics_{blocks}_{seed}_{fault}.json").write_text(
         json.dumps(metrics, indent=2, default=str))
     return metrics
 
 
 def is_success(m: dict[str, Any]) -> bool:
+    """Done with every block at its goal (3 mm / 2 deg by ground truth), none lost; for a
+    block taken away, the documented outcome: failed, naming that block, none lost."""
+    if m.get("removed") is not None:
+        return (m["outcome"] == "failed" and f"[{m['removed']}]" in (m.get("last_error") or "")
+                and not m["blocks_lost"])
     return (m["outcome"] == "done" and m["final_pos_err_max_m"] is not None
             and m["final_pos_err_max_m"] <= SUCCESS_POS_M
             and m["final_yaw_err_max_deg"] <= SUCCESS_YAW_DEG

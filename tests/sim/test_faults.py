@@ -90,7 +90,7 @@ def test_armed_faults_strike_at_their_moment(world_factory):
     assert world.armed is None
     world, reports, _ = carry_with(world_factory, lambda w: w.arm_fault("drop"))
     assert any(gap < 0.0508 - 0.002 for _, gap, _, _ in reports[:10])
-    assert any(e["type"] == "fault_drop" for e in world.monitor.events)
+    assert any(e["type"] == "fault" and e["reason"] == "drop" for e in world.monitor.events)
 
     world = world_factory([(0, START.x, START.y, START.theta)])
     world.step(24)

@@ -79,3 +79,42 @@ def test_one_placement_is_not_enough():
 def test_a_correction_is_its_own_description():
     c = PlaneCorrection(0.003, -0.002, math.radians(0.5), 0.7, 0.0)
     assert "shift (+3.00, -2.00) mm, turn +0.500 deg" in c.describe()
+
+
+def test_the_detector_side_learns_from_placements_and_corrects_what_it_publishes():
+    from msgs_py import BlockPose, BlockSet
+    from msgs_py.placement import Placement
+    from nodes.detector.handeye import HandEye
+
+    d, w = (0.004, -0.003), math.radians(0.4)
+    hand_eye = HandEye(CORNERS, CENTRE)
+    truth = {7: Pose2D(0.80, 0.20, 0.1), 8: Pose2D(0.55, -0.25, -0.2)}
+    t = 0
+
+    def frame():
+        nonlocal t
+        t += 10**9
+        raw = BlockSet(tuple(BlockPose(b, *_xyt(perceive(p, d, w))) for b, p in truth.items()),
+                       t)
+        return hand_eye.correct(raw)
+
+    out = frame()
+    assert out.blocks[0].pose.distance_to(truth[7]) > 0.003  # not corrected yet
+    for k, (block, goal) in enumerate([(7, Pose2D(0.70, 0.0, 0.0)), (8, Pose2D(0.70, 0.06, 0.0))]):
+        sample = placement(truth[block], goal, k * math.pi / 2, d, w)
+        hand_eye.on_placement(Placement(block, goal, sample.picked, k * math.pi / 2, t + 1))
+        truth[block] = Pose2D(*_xyt(hand_eye_true(sample, d, w)))
+        out = frame()
+    assert hand_eye.log and "corrected from 2 placements" in hand_eye.log[0]
+    for b in out.blocks:
+        assert b.pose.distance_to(truth[b.id]) < 3e-4
+
+
+def _xyt(p):
+    return p.x, p.y, p.theta
+
+
+def hand_eye_true(sample: Sample, d, w) -> Pose2D:
+    """Where the block of ``sample`` truly stands (invert the camera's error)."""
+    c = PlaneCorrection(d[0], d[1], w, *CENTRE)
+    return c.apply(sample.seen)

@@ -10,10 +10,10 @@ import pytest
 
 from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Push, Scene
 from msgs_py.scene import Workspace
+from msgs_py.status import GripperStatus
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore, State
 from nodes.executor.motion import ToolPose
-from nodes.executor.supervision import GripperReading, ObjectStatus
 
 WS = Workspace(0.45, 0.95, -0.35, 0.35)
 CFG = ExecutorConfig(gripper_settle_s=0.2, detection_timeout_s=1.0, replan_timeout_s=5.0)
@@ -166,9 +166,9 @@ class Gripper:
             tool_yaw0, theta0 = self.grip
             self.world.blocks[self.holding] = Pose2D(tool.x, tool.y,
                                                      theta0 + tool.yaw - tool_yaw0)
-        status = (ObjectStatus.STOPPED_CLOSING if self.holding is not None
-                  else ObjectStatus.AT_POSITION)
-        self.world.core.on_gripper(GripperReading(t, self.gap, self.requested, status))
+        status = "stopped_closing" if self.holding is not None else "at_position"
+        self.world.core.on_gripper(GripperStatus(self.gap, self.requested, status,
+                                                 round(t * 1e9)))
 
     def drop(self) -> None:
         """The held block slips out of the fingers: they close on nothing."""

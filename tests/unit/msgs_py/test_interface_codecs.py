@@ -26,6 +26,7 @@ from densepack_interfaces.msg import (
     PlannerStatus as PlannerStatusMsg,
 )
 from densepack_interfaces.msg import SimEvent as SimEventMsg
+from densepack_interfaces.msg import SimFault as SimFaultMsg
 from densepack_interfaces.srv import PlanScene
 from hypothesis import given
 from hypothesis import strategies as st
@@ -182,6 +183,26 @@ def test_poses_and_block_poses_round_trip_bit_exact(pose, block_id):
     roundtrip(pose, ic.pose_to_msg, ic.pose_from_msg)
     roundtrip(BlockPose(block_id, pose.x, pose.y, pose.theta), ic.block_pose_to_msg,
               ic.block_pose_from_msg)
+
+
+@given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1))
+def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns):
+    from msgs_py.placement import Placement
+
+    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns), ic.placement_to_msg,
+              ic.placement_from_msg)
+
+
+@given(st.sampled_from(["drop", "slip", "miss", "remove_block", "add_block", "camera_noise"]),
+       ids, poses(), st.floats(0, 50))
+def test_sim_faults_round_trip_and_refuse_what_they_lack(kind, block_id, pose, value):
+    from msgs_py.sim import SimFault
+
+    fault = SimFault(kind, block_id if kind in ("remove_block", "add_block") else None,
+                     (pose.x, pose.y, pose.theta) if kind == "add_block" else None, value)
+    roundtrip(fault, ic.sim_fault_to_msg, ic.sim_fault_from_msg)
+    with pytest.raises(MessageError, match="kind"):
+        ic.sim_fault_from_msg(SimFaultMsg())
 
 
 @st.composite

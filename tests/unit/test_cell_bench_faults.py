@@ -1,0 +1,69 @@
+"""The cell benchmark's fault set-up: where a block is put, how far off the calibration is,
+and what counts as success when a block is taken away."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from nodes.common.paths import config_path
+from nodes.common.transforms import quaternion_to_matrix
+from nodes.detector.camera_model import load_camera_pose
+from nodes.sim.layout import random_sim_scene
+from nodes.tools.cell_bench import (
+    CALIBRATION_TILT_DEG,
+    FAULTS,
+    calibration_off_args,
+    free_spot_in,
+    is_success,
+)
+
+
+def test_the_added_block_lands_clear_of_every_block_and_goal_slot():
+    scene = random_sim_scene(9, 0.10, 0)
+    x, y = free_spot_in(scene)
+    ws, s = scene.workspace, scene.block_size
+    assert ws.x_min + s <= x <= ws.x_max - s and ws.y_min + s <= y <= ws.y_max - s
+    taken = [(b.x, b.y) for b in scene.blocks] + [(p.x, p.y) for p in scene.goal.slot_poses(s)]
+    assert min(math.hypot(x - tx, y - ty) for tx, ty in taken) > 2 * s
+
+
+def test_the_calibration_fault_moves_the_detector_camera_5_mm_and_tilts_it_half_a_degree():
+    args = calibration_off_args()
+    assert args[0] == "-p" and args[1].startswith("detector:camera_pose.position:=")
+    position = json.loads(args[1].split(":=")[1])
+    quat = json.loads(args[3].split(":=")[1])
+    true = load_camera_pose(config_path("camera_calibration.yaml"))
+    assert math.dist(position, true.position) == pytest.approx(0.005, abs=1e-6)
+    r = quaternion_to_matrix(true.orientation_xyzw).T @ quaternion_to_matrix(quat)
+    angle = math.degrees(math.acos(np.clip((np.trace(r) - 1) / 2, -1, 1)))
+    assert abs(angle - CALIBRATION_TILT_DEG) < 1e-3
+
+
+def _metrics(**over):
+    m = {"outcome": "done", "final_pos_err_max_m": 0.001, "final_yaw_err_max_deg": 0.5,
+         "blocks_lost": [], "removed": None, "last_error": None}
+    m.update(over)
+    return m
+
+
+def test_success_needs_every_block_home_and_none_lost():
+    assert is_success(_metrics())
+    assert not is_success(_metrics(final_pos_err_max_m=0.004))
+    assert not is_success(_metrics(blocks_lost=[3]))
+    assert not is_success(_metrics(outcome="failed"))
+
+
+def test_a_block_taken_away_succeeds_only_as_a_failure_that_names_it():
+    named = "blocks [5] are no longer seen by the camera"
+    assert is_success(_metrics(outcome="failed", removed=5, last_error=named))
+    assert not is_success(_metrics(outcome="done", removed=5))
+    assert not is_success(_metrics(outcome="failed", removed=6, last_error=named))
+
+
+def test_all_is_every_kind_the_issue_names():
+    assert {"grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
+            "detector_restart", "camera_noise", "calibration"} <= set(FAULTS)
