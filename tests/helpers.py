@@ -17,6 +17,12 @@ def script(name: str) -> str:
     return str(BIN / name)
 
 
+def tool(module: str) -> list[str]:
+    """The command line of ``nodes.tools.<module>`` run as ``python -m`` (with ``cwd=REPO``:
+    this checkout's code), for tools whose console script a stale install may not have yet."""
+    return [sys.executable, "-m", f"nodes.tools.{module}"]
+
+
 def spawn_python(code: str, **kwargs) -> subprocess.Popen:
     """Run a Python snippet in a separate process on this session's ROS domain."""
     return subprocess.Popen(
