@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import signal
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -31,11 +33,14 @@ RAW_IMAGE_TYPE = "sensor_msgs/msg/Image"
 
 class Recorder:
     """Subscribes ``node`` to the wanted topics as they appear and writes every message into
-    the open rosbags ``writer`` (everything runs on the node's executor thread)."""
+    the open rosbags ``writer`` (everything runs on the node's executor thread). Any object
+    with rosbags' ``add_connection`` / ``write`` will do: ``densepack-view`` passes one that
+    forwards to Foxglove channels; ``tool`` and ``verb`` word the log lines."""
 
     def __init__(self, node: Any, writer: Any, topics: Sequence[str] = (), all_topics: bool = False,
                  exclude: Sequence[str] = (), raw_images: bool = False,
-                 log: Any = print) -> None:
+                 log: Any = print, tool: str = "densepack-record",
+                 verb: str = "recording") -> None:
         self.node = node
         self.writer = writer
         self.topics = {t if t.startswith("/") else "/" + t for t in topics}
@@ -43,6 +48,8 @@ class Recorder:
         self.exclude = set(exclude)
         self.raw_images = raw_images
         self.log = log
+        self.tool = tool
+        self.verb = verb
         self.connections: dict[str, Any] = {}
         self.counts: dict[str, int] = {}
         self._pending: list[tuple[Any, bytes]] = []  # came before the first /clock
@@ -71,7 +78,7 @@ class Recorder:
                 self._subscribe(topic, type_name, offered)
             except (ValueError, KeyError) as err:  # a type neither rclpy nor the typestore knows
                 self._skipped.add(topic)
-                self.log(f"densepack-record: not recording {topic}: {err}")
+                self.log(f"{self.tool}: not {self.verb} {topic}: {err}")
 
     def _subscribe(self, topic: str, type_name: str, offered: list[Any]) -> None:
         msg_class = import_message_type(type_name)
@@ -86,7 +93,7 @@ class Recorder:
 
         self._subscriptions.append(self.node.create_subscription(
             msg_class, topic, on_message, bags.subscription_qos(offered), raw=True))
-        self.log(f"densepack-record: recording {topic} ({type_name})")
+        self.log(f"{self.tool}: {self.verb} {topic} ({type_name})")
 
     def _write(self, connection: Any, data: bytes) -> None:
         stamp = self.node.get_clock().now().nanoseconds
@@ -105,6 +112,19 @@ class Recorder:
     def summary(self) -> str:
         total = sum(self.counts.values())
         return f"{total} messages on {len(self.counts)} topics"
+
+
+def stop_on_signals() -> threading.Event:
+    """An event SIGINT and SIGTERM set (instead of raising or shutting rclpy down), so a
+    tool's loop ends between two spins and closes its files."""
+    stop = threading.Event()
+
+    def handler(signum: int, frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+    return stop
 
 
 def default_output() -> Path:
@@ -147,6 +167,7 @@ def main(args: Sequence[str] | None = None) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.parameter import Parameter
+    from rclpy.signals import SignalHandlerOptions
 
     argv = list(sys.argv if args is None else ["densepack-record", *args])
     user_args, ros_argv = split_ros_args(argv)
@@ -160,7 +181,10 @@ def main(args: Sequence[str] | None = None) -> int:
         return 2
     bags.typestore()  # fail early on a missing interface package
     die_with_launcher()
-    rclpy.init(args=ros_argv)  # SIGINT and SIGTERM shut the context down: the bag is closed
+    # Ctrl-C and SIGTERM only raise a flag the loop checks between spins: rclpy's own handlers
+    # shut the context down under a spin in progress, which then dies of an RCLError.
+    stop = stop_on_signals()
+    rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node(
         "densepack_record", parameter_overrides=[
             Parameter("use_sim_time", Parameter.Type.BOOL, opts.use_sim_time)])
@@ -178,8 +202,8 @@ def main(args: Sequence[str] | None = None) -> int:
           flush=True)
     start = time.monotonic()
     try:
-        while rclpy.ok() and (opts.duration is None
-                              or time.monotonic() - start < opts.duration):
+        while not stop.is_set() and (opts.duration is None
+                                     or time.monotonic() - start < opts.duration):
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
