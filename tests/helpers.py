@@ -59,3 +59,15 @@ def spawn_publisher(topic: str, imports: str, msg_type: str, message: str, count
     return spawn_python(PUBLISHER_SNIPPET.format(
         topic=topic, imports=imports, msg_type=msg_type, message=message, count=count,
         period=period, qos=qos, linger=linger))
+
+
+def read_mcap(bag: Path) -> list[tuple[str, str, int, object]]:
+    """(topic, schema name, log time, decoded message) of every message, by the mcap reader."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (path,) = bag.glob("*.mcap")
+    with path.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        return [(channel.topic, schema.name, message.log_time, decoded)
+                for schema, channel, message, decoded in reader.iter_decoded_messages()]

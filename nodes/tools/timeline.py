@@ -117,6 +117,12 @@ def spans_to_json(spans: list[ActionSpan]) -> list[dict[str, Any]]:
     return [{**asdict(s), "duration_s": s.duration_s} for s in spans]
 
 
+def spans_from_json(rows: list[dict[str, Any]]) -> list[ActionSpan]:
+    """``timeline.json`` rows back as spans (to redraw a report's timeline)."""
+    names = set(ActionSpan.__dataclass_fields__)
+    return [ActionSpan(**{k: v for k, v in row.items() if k in names}) for row in rows]
+
+
 def write_timeline(spans: list[ActionSpan], png: Path, json_path: Path | None = None,
                    title: str = "", tolerance_m: float | None = None) -> None:
     """Draw ``spans`` into ``png`` (matplotlib, Agg: no display needed) and, if asked, their
@@ -157,12 +163,12 @@ def write_timeline(spans: list[ActionSpan], png: Path, json_path: Path | None = 
     if spans:
         ax.set_xlim(min(s.start_s for s in spans) - 1.0, max(s.end_s for s in spans) + 6.0)
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in KIND_COLOURS.values()]
-    ax.legend(handles, list(KIND_COLOURS), loc="lower right", fontsize=8)
+    ax.legend(handles, list(KIND_COLOURS), loc="upper right", fontsize=8)
     ax.set_title(title or "actions", fontsize=10)
     ax_err.set_xlabel("block's final error (mm)")
     if tolerance_m is not None:
-        ax_err.axvline(tolerance_m * 1e3, color="k", lw=0.8, ls="--")
-        ax_err.text(tolerance_m * 1e3, -0.9, " tolerance", fontsize=7, va="bottom")
+        ax_err.axvline(tolerance_m * 1e3, color="k", lw=0.8, ls="--", label="placed tolerance")
+        ax_err.legend(loc="lower right", fontsize=7)
     ax_err.set_title("final error vs goal", fontsize=10)
     fig.tight_layout()
     fig.savefig(png, dpi=100)

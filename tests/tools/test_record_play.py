@@ -29,7 +29,7 @@ from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.sim.node import SimNode
 from nodes.tools import bags
-from tests.helpers import REPO, spawn_publisher, tool
+from tests.helpers import REPO, read_mcap, spawn_publisher, tool
 
 pytestmark = pytest.mark.ros
 
@@ -61,18 +61,6 @@ def stop(proc: subprocess.Popen, sig: int) -> str:
     out, _ = proc.communicate(timeout=30)
     assert proc.returncode == 0, out
     return out
-
-
-def read_mcap(bag: Path) -> list[tuple[str, str, int, object]]:
-    """(topic, schema name, log time, decoded message) of every message, by the mcap reader."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-
-    (path,) = bag.glob("*.mcap")
-    with path.open("rb") as stream:
-        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-        return [(channel.topic, schema.name, message.log_time, decoded)
-                for schema, channel, message, decoded in reader.iter_decoded_messages()]
 
 
 def test_a_recording_of_the_sim_reads_back_with_the_mcap_reader(ros, tmp_path):

@@ -84,3 +84,10 @@ def test_an_empty_run_still_draws(tmp_path):
 
 def test_duration_is_end_minus_start():
     assert ActionSpan("p", 1, 1, "push", 0, 2.0, 5.5).duration_s == pytest.approx(3.5)
+
+
+def test_json_rows_read_back_as_the_spans():
+    spans = feed_two_plans().finish(21.0, {3: 0.0004})
+    from nodes.tools.timeline import spans_from_json, spans_to_json
+
+    assert spans_from_json(json.loads(json.dumps(spans_to_json(spans)))) == spans
