@@ -17,6 +17,12 @@ def script(name: str) -> str:
     return str(BIN / name)
 
 
+def tool(module: str) -> list[str]:
+    """The command line of ``nodes.tools.<module>`` run as ``python -m`` (with ``cwd=REPO``:
+    this checkout's code), for tools whose console script a stale install may not have yet."""
+    return [sys.executable, "-m", f"nodes.tools.{module}"]
+
+
 def spawn_python(code: str, **kwargs) -> subprocess.Popen:
     """Run a Python snippet in a separate process on this session's ROS domain."""
     return subprocess.Popen(
@@ -53,3 +59,15 @@ def spawn_publisher(topic: str, imports: str, msg_type: str, message: str, count
     return spawn_python(PUBLISHER_SNIPPET.format(
         topic=topic, imports=imports, msg_type=msg_type, message=message, count=count,
         period=period, qos=qos, linger=linger))
+
+
+def read_mcap(bag: Path) -> list[tuple[str, str, int, object]]:
+    """(topic, schema name, log time, decoded message) of every message, by the mcap reader."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (path,) = bag.glob("*.mcap")
+    with path.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        return [(channel.topic, schema.name, message.log_time, decoded)
+                for schema, channel, message, decoded in reader.iter_decoded_messages()]

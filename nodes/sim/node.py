@@ -38,14 +38,18 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CameraInfo, Image, JointState
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError
 from msgs_py import interface_codecs as ic
-from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
+from msgs_py.image_codecs import (
+    array_to_compressed_image,
+    array_to_image,
+    intrinsics_to_camera_info,
+)
 from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp, stamp_to_ns
 from msgs_py.sim import SimEvents as SimEventsRecord
 from msgs_py.status import GRIPPER_OBJECT_STATES
@@ -108,6 +112,10 @@ class SimNode(Node):
         self.pub_events = self.create_publisher(SimEvents, "/sim/events", LATCHED)
         self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
         self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
+        # image_transport's compressed sibling (JPEG, ~115 kB): what viewers, best-effort
+        # subscribers and bags take. Encoded only while someone listens.
+        self.pub_compressed = self.create_publisher(CompressedImage,
+                                                    "/camera/image_raw/compressed", CAMERA)
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
                                  RELIABLE, callback_group=group)
         self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
@@ -313,6 +321,8 @@ class SimNode(Node):
         rgb = self.world.render()
         self.pacer.restart(self.world.time_s)  # the render's wall time is not simulated time
         self.pub_image.publish(array_to_image(rgb, stamp_ns))
+        if self.pub_compressed.get_subscription_count():
+            self.pub_compressed.publish(array_to_compressed_image(rgb, stamp_ns))
         self.pub_info.publish(intrinsics_to_camera_info(self.world.camera.intrinsics, stamp_ns))
         return stamp_ns
 

@@ -27,6 +27,7 @@ from msgs_py import BlockSet, Plan, Scene
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
 from nodes.tools.cell import NodeLaunch, load_cell
+from nodes.tools.timeline import TimelineBuilder
 
 #: How the run tools change the cell file's node set: no goal node (the goal is a
 #: ``/rearrange`` goal), and an executor that starts a plan only for a goal, so one restarted
@@ -79,9 +80,10 @@ class RunMonitor:
         self.first_image: Any = None
         self.last_image: Any = None
         self.sim_time = 0.0
+        # Per-action spans for the report's timeline, from the status stream as it comes.
+        self.timeline = TimelineBuilder()
         n = self.node
-        n.create_subscription(ExecutorStatus, "/executor/status",
-                              self._keep("executor_status", ic.executor_status_from_msg),
+        n.create_subscription(ExecutorStatus, "/executor/status", self._on_executor_status,
                               LATCHED)
         n.create_subscription(PlannerStatusMsg, "/planner/status",
                               self._keep("planner_status", ic.planner_status_from_msg), LATCHED)
@@ -111,10 +113,26 @@ class RunMonitor:
                 if attr == "plans":
                     if not self.plans or self.plans[-1].plan_id != value.plan_id:
                         self.plans.append(value)
+                        self.timeline.add_plan(value.plan_id, [a.type for a in value.actions])
                 else:
                     setattr(self, attr, value)
 
         return callback
+
+    def _on_executor_status(self, msg: Any) -> None:
+        from msgs_py import MessageError
+        from msgs_py.interface_codecs import executor_status_from_msg
+        from msgs_py.ros_codecs import stamp_to_ns
+
+        try:
+            status = executor_status_from_msg(msg)
+        except (MessageError, ValueError):
+            return
+        with self.lock:
+            self.executor_status = status
+            # The executor stamps its status with its simulated clock.
+            self.timeline.on_status(stamp_to_ns(msg.stamp) * 1e-9, status.state, status.plan_id,
+                                    status.action_index, status.action_total, status.block)
 
     def _on_image(self, msg: Any) -> None:
         with self.lock:
@@ -184,8 +202,10 @@ class GoalSender:
         from msgs_py.interface_codecs import rearrange_feedback_from_msg
 
         self._heard_at = time.monotonic()
+        feedback = rearrange_feedback_from_msg(message.feedback)
         with self.monitor.lock:
-            self.monitor.feedback = rearrange_feedback_from_msg(message.feedback)
+            self.monitor.feedback = feedback
+            self.monitor.timeline.on_corrections(feedback.corrections)
 
     def _finish(self, answer: Any) -> None:
         from msgs_py.interface_codecs import rearrange_result_from_msg
@@ -238,13 +258,21 @@ class CellRun:
     def start(self, name: str | None = None) -> None:
         for launch in [self.launches[name]] if name else self.launches.values():
             cmd = [sys.executable, "-m", launch.module, *launch.ros_args(self.extra)]
-            proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                    text=True, env=self.env, start_new_session=True)
-            self.procs[launch.name] = proc
+            self.procs[launch.name] = self._spawn(launch.name, cmd)
             self.killed.discard(launch.name)
-            pump = threading.Thread(target=self._pump, args=(launch.name, proc), daemon=True)
-            pump.start()
-            self.pumps.append(pump)
+
+    def attach(self, name: str, cmd: list[str]) -> subprocess.Popen:
+        """Start a helper process beside the cell (a recorder): same environment and log,
+        but not one of the cell's nodes, so its end is no crash and ``stop`` leaves it be."""
+        return self._spawn(name, cmd)
+
+    def _spawn(self, name: str, cmd: list[str]) -> subprocess.Popen:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                text=True, env=self.env, start_new_session=True)
+        pump = threading.Thread(target=self._pump, args=(name, proc), daemon=True)
+        pump.start()
+        self.pumps.append(pump)
+        return proc
 
     def _pump(self, name: str, proc: subprocess.Popen) -> None:
         assert proc.stdout is not None

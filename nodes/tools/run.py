@@ -7,7 +7,10 @@ and when the goal ends (or the time limit passes: the goal is canceled, a safe s
 the cell and writes a report folder: ``before.png`` / ``after.png`` (overhead camera),
 ``plan.png`` (the first plan drawn), ``plan.json``, ``metrics.json`` (the goal's outcome and
 figures, per-block final error against the goal from ``/sim/ground_truth``, unintended
-contacts and lost blocks from ``/sim/events``) and ``cell.log``.
+contacts and lost blocks from ``/sim/events``), ``timeline.png`` / ``timeline.json`` (per
+action: kind, simulated duration, corrections, the block's final error), ``cell.log``, and
+``bag/``: the whole run recorded as a rosbag2 bag (MCAP; ``densepack-record --all``, images
+compressed; ``--no-record`` to skip), for ``densepack-play`` and the Foxglove app.
 """
 
 from __future__ import annotations
@@ -16,12 +19,15 @@ import argparse
 import datetime as dt
 import json
 import os
+import signal
+import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from msgs_py import Plan, load_scene, save_plan
+from msgs_py.cell import PLACED_TOLERANCE_XY
 from nodes.common.paths import config_path
 from nodes.tools.cell_run import (
     CellRun,
@@ -32,11 +38,16 @@ from nodes.tools.cell_run import (
     run_metrics,
     stop_cells_on_sigterm,
 )
+from nodes.tools.timeline import write_timeline
 
 EXIT_CODES = {"done": 0, "failed": 1, "canceled": 1, "crashed": 1, "timeout": 2,
               "rejected": 4}
 EXIT_ANOTHER_CELL = 3
 EXIT_REFUSED = 4
+#: The run's bag, inside its report folder.
+BAG_DIR = "bag"
+#: How long the recorder may take to close its bag after SIGINT (s).
+RECORDER_CLOSE_S = 30.0
 
 
 def image_to_png(msg: Any, path: Path) -> bool:
@@ -109,7 +120,29 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--timeout", type=float, default=900.0, help="wall-time limit (s)")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress bar (there is none either when stdout is not a terminal)")
+    parser.add_argument("--no-record", action="store_true",
+                        help=f"do not record the run into <report>/{BAG_DIR} (rosbag2, MCAP)")
     return parser
+
+
+def start_recorder(cell: CellRun, bag: Path) -> subprocess.Popen:
+    """``densepack-record --all`` into ``bag`` (simulated time, images compressed), as its
+    own process beside the cell: the run's own loop stays as light as without it."""
+    return cell.attach("record", [sys.executable, "-m", "nodes.tools.record", "--all",
+                                  "--use-sim-time", "--quiet", "-o", str(bag)])
+
+
+def stop_recorder(proc: subprocess.Popen) -> bool:
+    """Ctrl-C the recorder and wait for it to close the bag; True when it did."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=RECORDER_CLOSE_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+        return False
+    return proc.returncode == 0
 
 
 def main(args: Sequence[str] | None = None) -> int:
@@ -145,13 +178,17 @@ def main(args: Sequence[str] | None = None) -> int:
             monitor.node.destroy_node()
             rclpy.try_shutdown(context=context)
             return EXIT_ANOTHER_CELL
+        recorder = None if opts.no_record else start_recorder(cell, report / BAG_DIR)
         cell.start()
         try:
             result = run(cell, monitor, layout, opts.timeout, progress)
         finally:
             progress.close()
+            recorded = recorder is not None and stop_recorder(recorder)
             cell.stop()
     metrics = run_metrics(monitor, scene, result)
+    if recorder is not None:
+        metrics["bag"] = bag_figures(report / BAG_DIR) if recorded else None
     write_report(report, monitor, metrics)
     monitor.node.destroy_node()
     rclpy.try_shutdown(context=context)
@@ -166,12 +203,38 @@ def write_report(report: Path, monitor: RunMonitor, metrics: dict[str, Any]) -> 
     if plans:
         save_plan(plans[0], report / "plan.json")
         draw_plan(plans[0], report / "plan.png")
+    with monitor.lock:
+        spans = monitor.timeline.finish(
+            monitor.sim_time, {e["block"]: e["pos_err_m"] for e in metrics["final_errors"]})
+    write_timeline(spans, report / "timeline.png", report / "timeline.json",
+                   title=f"{report.name}: {metrics['outcome']}, {len(spans)} actions",
+                   tolerance_m=PLACED_TOLERANCE_XY)
     (report / "metrics.json").write_text(json.dumps(metrics, indent=2, default=str) + "\n")
     worst, done = metrics["final_pos_err_max_m"], metrics["actions_executed"]
     print(f"densepack-run: {metrics['outcome']}; worst block "
           f"{'n/a' if worst is None else f'{worst * 1e3:.2f} mm'}, "
           f"{'n/a' if done is None else f'{done:.0f}'} actions, lost {metrics['blocks_lost']}, "
           f"wall {metrics['wall_time_s']:.0f} s; report in {report}", flush=True)
+    bag = metrics.get("bag")
+    if bag:
+        print(f"densepack-run: recorded {bag['messages']} messages on {bag['topics']} topics "
+              f"into {report / BAG_DIR} ({bag['size_mb']:.1f} MB); replay: densepack-play "
+              f"{report / BAG_DIR}", flush=True)
+    elif "bag" in metrics:
+        print("densepack-run: the recorder did not close its bag (see cell.log)", flush=True)
+
+
+def bag_figures(bag: Path) -> dict[str, Any] | None:
+    """Messages, topics and size of a closed bag, from its ``metadata.yaml``."""
+    import yaml
+
+    try:
+        info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    except (OSError, KeyError, TypeError, yaml.YAMLError):
+        return None
+    return {"messages": info["message_count"],
+            "topics": sum(1 for t in info["topics_with_message_count"] if t["message_count"]),
+            "size_mb": sum(f.stat().st_size for f in bag.iterdir()) / 1e6}
 
 
 

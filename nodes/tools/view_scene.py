@@ -1,0 +1,148 @@
+"""The live view's 3-D scene: the cell as Foxglove ``SceneUpdate`` entities, built from the
+cell's own data (no rclpy here; ``densepack-view`` feeds it decoded messages).
+
+Why a scene of our own beside the MarkerArrays the nodes publish: the view shows what the
+cell *believes* (detected blocks, the goal it was given, the plan it runs, where the arm's
+tool is) in one topic whose entities are named, so the Foxglove 3-D panel can toggle each
+part, and the goal slots (which no node draws) are there too. Frame: ``world``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+from foxglove.messages import (
+    ArrowPrimitive,
+    Color,
+    CubePrimitive,
+    Pose,
+    Quaternion,
+    SceneEntity,
+    SceneUpdate,
+    SpherePrimitive,
+    TextPrimitive,
+    Timestamp,
+    Vector3,
+)
+
+from msgs_py import BlockSet, Plan, Scene
+from msgs_py.poses import Pose2D
+
+FRAME = "world"
+#: Colours: detected blocks, goal slots (translucent floor tiles), plan arrows per action kind
+#: (the plan drawing's own colours), the TCP.
+BLOCK_COLOUR = Color(r=0.85, g=0.75, b=0.55, a=1.0)
+GOAL_COLOUR = Color(r=0.2, g=0.7, b=0.3, a=0.35)
+ACTION_COLOURS = {"pick_place": Color(r=0.30, g=0.45, b=0.69, a=0.9),
+                  "push": Color(r=0.87, g=0.52, b=0.32, a=0.9)}
+TCP_COLOUR = Color(r=0.9, g=0.1, b=0.1, a=1.0)
+#: Height of the goal tiles and of the plan's arrows above the table (m): the tiles are
+#: drawn flat on the table, the arrows just above the blocks so they are not hidden.
+GOAL_TILE_M = 0.002
+ARROW_LIFT_M = 0.01
+
+
+def _stamp(stamp_ns: int) -> Timestamp:
+    return Timestamp(sec=stamp_ns // 10**9, nsec=stamp_ns % 10**9)
+
+
+def _yaw_quaternion(yaw: float) -> Quaternion:
+    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+
+
+def _pose(x: float, y: float, z: float, yaw: float = 0.0) -> Pose:
+    return Pose(position=Vector3(x=x, y=y, z=z), orientation=_yaw_quaternion(yaw))
+
+
+def _entity(entity_id: str, stamp_ns: int, **primitives: list) -> SceneEntity:
+    return SceneEntity(timestamp=_stamp(stamp_ns), frame_id=FRAME, id=entity_id,
+                       frame_locked=True, **primitives)
+
+
+def block_entity(blocks: BlockSet, stamp_ns: int) -> SceneEntity:
+    """One cube per detected block, its id written above it."""
+    s = blocks.block_size
+    cubes = [CubePrimitive(pose=_pose(b.pose.x, b.pose.y, s / 2, b.pose.theta),
+                           size=Vector3(x=s, y=s, z=s), color=BLOCK_COLOUR)
+             for b in blocks.blocks]
+    texts = [TextPrimitive(pose=_pose(b.pose.x, b.pose.y, s + 0.02), billboard=True,
+                           font_size=14.0, scale_invariant=True,
+                           color=Color(r=0.1, g=0.1, b=0.1, a=1.0), text=str(b.id))
+             for b in blocks.blocks]
+    return _entity("blocks", stamp_ns, cubes=cubes, texts=texts)
+
+
+def goal_entity(layout: Scene, stamp_ns: int) -> SceneEntity:
+    """The goal's slots as translucent tiles on the table (a labeled slot names its block)."""
+    s = layout.block_size
+    cubes, texts = [], []
+    if layout.goal is not None:
+        slots = layout.goal.slot_poses(s)
+        # Explicit labeled slots name their block; a grid's slot k is the k-th smallest id.
+        ids = [slot.id for slot in layout.goal.slots] if layout.goal.slots else []
+        for k, slot in enumerate(slots):
+            cubes.append(CubePrimitive(pose=_pose(slot.x, slot.y, GOAL_TILE_M / 2, slot.theta),
+                                       size=Vector3(x=s, y=s, z=GOAL_TILE_M), color=GOAL_COLOUR))
+            label = f"slot {k}" if k >= len(ids) or ids[k] is None else f"goal {ids[k]}"
+            texts.append(TextPrimitive(pose=_pose(slot.x, slot.y - s * 0.35, GOAL_TILE_M),
+                                       billboard=True, font_size=10.0, scale_invariant=True,
+                                       color=Color(r=0.1, g=0.45, b=0.15, a=1.0), text=label))
+    return _entity("goal", stamp_ns, cubes=cubes, texts=texts)
+
+
+def _arrow(a: Pose2D, b: Pose2D, z: float, colour: Color) -> ArrowPrimitive | None:
+    dx, dy = b.x - a.x, b.y - a.y
+    length = math.hypot(dx, dy)
+    if length < 1e-4:  # a turn in place: nothing to point along
+        return None
+    head = min(0.03, 0.4 * length)
+    return ArrowPrimitive(pose=_pose(a.x, a.y, z, math.atan2(dy, dx)),
+                          shaft_length=length - head, shaft_diameter=0.006,
+                          head_length=head, head_diameter=0.018, color=colour)
+
+
+def plan_entity(plan: Plan, stamp_ns: int, done: int = 0) -> SceneEntity:
+    """One arrow per action still to run (from ``done``, the executor's count), from where
+    its block is to where it goes: blue pick-and-place, orange push."""
+    z = (plan.scene.block_size if plan.scene is not None else 0.0508) + ARROW_LIFT_M
+    arrows = [arrow for action in plan.actions[done:]
+              if (arrow := _arrow(action.from_, action.to, z,
+                                  ACTION_COLOURS.get(action.type, BLOCK_COLOUR))) is not None]
+    return _entity("plan", stamp_ns, arrows=arrows)
+
+
+def tool_z_axis(orientation_xyzw: Iterable[float]) -> tuple[float, float, float]:
+    """The tool's z axis (where the fingers point) in ``world``: the rotation's third column."""
+    qx, qy, qz, qw = orientation_xyzw
+    return (2 * (qx * qz + qw * qy), 2 * (qy * qz - qw * qx), 1 - 2 * (qx * qx + qy * qy))
+
+
+def pointing_quaternion(direction: Iterable[float]) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of a rotation taking +x onto the unit ``direction`` (an arrow points along
+    its pose's +x): a yaw about z after a pitch about y."""
+    dx, dy, dz = direction
+    yaw, pitch = math.atan2(dy, dx), -math.asin(max(-1.0, min(1.0, dz)))
+    cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+    return (-sy * sp, cy * sp, sy * cp, cy * cp)
+
+
+def tcp_entity(position: Iterable[float], orientation_xyzw: Iterable[float],
+               stamp_ns: int) -> SceneEntity:
+    """The arm's tool centre point: a sphere, and an arrow along the tool's z (the way the
+    fingers point)."""
+    x, y, z = position
+    ax, ay, az, aw = pointing_quaternion(tool_z_axis(orientation_xyzw))
+    arrow_q = Quaternion(x=ax, y=ay, z=az, w=aw)
+    sphere = SpherePrimitive(pose=Pose(position=Vector3(x=x, y=y, z=z),
+                                       orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+                             size=Vector3(x=0.02, y=0.02, z=0.02), color=TCP_COLOUR)
+    arrow = ArrowPrimitive(pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=arrow_q),
+                           shaft_length=0.05, shaft_diameter=0.006, head_length=0.02,
+                           head_diameter=0.014, color=TCP_COLOUR)
+    return _entity("tcp", stamp_ns, spheres=[sphere], arrows=[arrow])
+
+
+def scene_update(entities: Iterable[SceneEntity | None]) -> SceneUpdate:
+    """The entities known so far as one update (each replaces its namesake in the panel)."""
+    return SceneUpdate(entities=[e for e in entities if e is not None])
