@@ -101,7 +101,7 @@ def poses(draw):
 @st.composite
 def lattice_poses(draw, n, x0, y0, cols=4):
     """n footprints far enough apart never to overlap, inside WS (x from x0, y from y0)."""
-    pitch = S * 1.5
+    pitch = S * 1.6  # 81 mm: two rotated cubes 8 mm jittered towards each other still clear
     out = []
     for k in range(n):
         jitter = draw(st.floats(-0.004, 0.004))
@@ -119,7 +119,7 @@ def goals(draw, n_blocks=None, labeled=None):
                         draw(st.floats(0.0, 0.01)))
         return Goal(grid=grid, labeled=labeled, yaw_exact=draw(st.booleans()))
     n = draw(st.integers(1, 6))
-    slot_poses = draw(lattice_poses(n, 0.75, 0.05, cols=3))
+    slot_poses = draw(lattice_poses(n, 0.7, 0.05, cols=3))
     block_ids = draw(st.lists(st.integers(0, 30), min_size=n, max_size=n, unique=True))
     slots = tuple(GoalSlot(p.x, p.y, p.theta, i if labeled else None)
                   for p, i in zip(slot_poses, block_ids, strict=True))
