@@ -279,17 +279,21 @@ class ExecutorCore(FaultHandling):
 
     # --- status ---------------------------------------------------------------------------------
     def status(self) -> ExecutorStatus:
+        """What ``/executor/status`` says: action k of n counts the plan's actions only (the
+        camera check's re-grips show in the detail)."""
         total = len(self.plan.actions) if self.plan else 0
         block = None
         if self.plan and self.state is State.RUNNING and self.index < total:
             block = self.plan.actions[self.index].block
+        running = self.state is State.RUNNING and self.index >= self._probes
         if self.held is not None and self.held.block is not None:
             block = self.held.block
         return ExecutorStatus(
             state=self.state.value,
             plan_id=self.plan.plan_id if self.plan else "",
-            action_index=min(self.index + (1 if self.state is State.RUNNING else 0), total),
-            action_total=total,
+            action_index=min(max(0, self.index - self._probes) + (1 if running else 0),
+                             total - self._probes),
+            action_total=total - self._probes,
             block=block,
             last_error=self.last_error,
             detail=self.detail,
@@ -467,7 +471,9 @@ class ExecutorCore(FaultHandling):
         if off or newcomers:
             why = "; ".join([d.describe() for d in off[:3]]
                             + [f"block {b} appeared" for b in newcomers[:3]])
-            self._replan(f"after action {self.index}: {why}")
+            done = "the camera check" if 0 < self.index <= self._probes else \
+                f"action {self.index - self._probes}"
+            self._replan(f"after {done}: {why}")
             return
         self.expected = dict(self.perceived)
         if self._pending_plan is not None:
@@ -566,9 +572,12 @@ class ExecutorCore(FaultHandling):
             self._fail(f"action {self.index + 1} moves block {action.block}, which is not seen")
             return
         self._enter(State.RUNNING)
-        check = " (camera check: in-place re-grip)" if self.index < self._probes else ""
-        self.detail = f"action {self.index + 1}/{len(plan.actions)}: {action.type} " \
-                      f"block {action.block}{check}"
+        if self.index < self._probes:
+            self.detail = f"camera check {self.index + 1}/{self._probes}: block {action.block} " \
+                          f"re-gripped in place (grasp {action.grasp})"
+        else:
+            self.detail = f"action {self.index - self._probes + 1}/" \
+                          f"{len(plan.actions) - self._probes}: {action.type} block {action.block}"
         self._log(self.detail)
         steps = action_steps(action, start, self.geo, self.cfg,
                              self._pick_opening(action, start))

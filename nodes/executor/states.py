@@ -112,3 +112,12 @@ class Held:
 
     block: int | None
     picked_from: Pose2D | None = None
+
+
+def transitions_markdown() -> str:
+    """``TRANSITIONS`` as the Markdown table the README shows (a test keeps the two equal)."""
+    lines = ["| from | to | when |", "| --- | --- | --- |"]
+    for source, targets in TRANSITIONS.items():
+        for target, why in targets.items():
+            lines.append(f"| `{source.value}` | `{target.value}` | {why} |")
+    return "\n".join(lines)

@@ -117,7 +117,8 @@ class FakePlanner(Node):
 
 FAST = [Parameter("speed", value=2.0), Parameter("accel", value=20.0),
         Parameter("descend_speed", value=1.0), Parameter("gripper_settle_s", value=0.05),
-        Parameter("yaw_rate", value=20.0), Parameter("detection_timeout_s", value=2.0)]
+        Parameter("yaw_rate", value=20.0), Parameter("detection_timeout_s", value=2.0),
+        Parameter("camera_check", value=False)]  # unit-tested; the fake cell is exact
 
 
 def layout(goal: dict[int, Pose2D] = GOAL, workspace: Workspace = WORKSPACE) -> Scene:

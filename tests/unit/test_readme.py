@@ -85,3 +85,11 @@ def test_the_documented_rearrange_goal_is_the_default_scenes_goal():
     layout = rearrange_goal_from_msg(goal)
     assert layout == goal_layout(scene)
     check_layout(layout, BlockSet(scene.blocks), ExecutorConfig().safe_box)
+
+
+def test_the_readme_state_table_is_the_executors():
+    from nodes.executor.states import transitions_markdown
+
+    shown = re.search(r"<!-- transitions -->\n(.*?)\n<!-- /transitions -->", README, re.S)
+    assert shown, "README lacks the <!-- transitions --> table"
+    assert shown.group(1).strip() == transitions_markdown()

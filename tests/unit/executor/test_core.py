@@ -63,6 +63,7 @@ class World:
         self.on_replan: Callable[[], Plan | None] = lambda: None
         self.disturb: Callable[[int], None] = lambda actions_done: None
         self.states: list[str] = []
+        self.progress: list[tuple[str, int, int]] = []  # (state, action k, of n) as published
         self.logs: list[str] = []
         self.max_speed = 0.0
         core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
@@ -123,9 +124,13 @@ class World:
                     plans.remove((due, plan))
                     if plan is not None:
                         self.core.on_plan(plan)
-            state = self.core.status().state
+            status = self.core.status()
+            state = status.state
             if not self.states or self.states[-1] != state:
                 self.states.append(state)
+            progress = (state, status.action_index, status.action_total)
+            if not self.progress or self.progress[-1] != progress:
+                self.progress.append(progress)
             t += DT
         self.t_end = t - DT
         assert until(), f"timed out in {self.core.state}: {self.logs[-5:]}"
@@ -602,6 +607,9 @@ def test_the_first_run_re_grips_the_most_isolated_block_on_both_axes_then_runs_t
     assert all(a.to == START[1].pose for a in regrips)
     assert core.metrics["camera_check_regrips"] == 2
     assert core.metrics["actions_executed"] == 3 and world.replan_requests == 0
+    # the status counts the plan's actions: 0 of 3 while checking, never negative
+    assert ("running", 0, 3) in world.progress and ("running", 1, 3) in world.progress
+    assert all(0 <= k <= n == 3 for _, k, n in world.progress)
     assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
     # once in the executor's lifetime: a second plan runs without the check
     core.on_plan(two_action_plan("p2", blocks=[BlockPose(1, *_xyt(world.blocks[1])),
