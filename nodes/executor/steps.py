@@ -95,6 +95,10 @@ GRIP_STILL_S = 0.04
 GRIP_MIN_S = 0.04
 GRIP_MOVED_M = 0.0005
 GRIP_NO_MOTION_S = 0.3
+#: Fingers told to open count as stopped only this close to the opening (m): nothing should
+#: stop an opening, and one that pauses on a block's face (a pad dragging) must not let the
+#: arm rise and tip the block it has just set down.
+GRIP_OPEN_SLACK = 0.002
 #: A gripper that neither reaches its opening nor stops within this long has failed (s).
 GRIP_TIMEOUT_S = 3.0
 
@@ -361,13 +365,16 @@ class BrakingMove(LinearMove):
 
 
 def _gripper_done(gaps: list[tuple[float, float]], opening: float, elapsed: float) -> bool:
-    """The fingers are at the commanded opening, or have stopped (on a block, say).
+    """The fingers are at the commanded opening, or have stopped (closing on a block, say;
+    an opening only within GRIP_OPEN_SLACK of its end).
 
     ``gaps`` are (time, gap) samples, the first one taken before the command.
     """
     t_last, g_last = gaps[-1]
     if abs(g_last - opening) <= GRIP_AT_POSITION:
         return True
+    if opening > gaps[0][1] + GRIP_MOVED_M and g_last < opening - GRIP_OPEN_SLACK:
+        return False  # opening, and still short of it
     first = max((k for k, (t, _) in enumerate(gaps) if t <= t_last - GRIP_STILL_S), default=0)
     window = gaps[first:]  # the last GRIP_STILL_S, from the sample at or before its start
     span = t_last - window[0][0]

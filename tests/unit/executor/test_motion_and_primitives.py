@@ -251,6 +251,17 @@ def test_a_grip_that_reaches_its_opening_is_done_at_once_and_one_that_never_move
     assert 0.29 <= done <= 0.35
 
 
+def test_a_release_that_pauses_on_the_block_is_not_done_until_the_fingers_are_open():
+    def opening(t):  # 50.8 -> 68.8 mm at 150 mm/s, a pad dragging on the block 0.1-0.2 s
+        moved = 0.15 * max(0.0, t - 0.04)
+        if t > 0.1:
+            moved = max(0.15 * 0.06, 0.15 * (t - 0.14)) if t > 0.2 else 0.15 * 0.06
+        return min(0.0688, 0.0508 + moved)
+
+    done, error = run_grip(opening, 0.0688)
+    assert not error and done >= 0.2 + (0.0688 - 0.0508 - 0.009) / 0.15 - 0.03
+
+
 def test_a_gripper_that_neither_arrives_nor_stops_is_an_error():
     _, error = run_grip(lambda t: 0.0688 - 0.005 * t, 0.0, until=5.0)  # a slow creep
     assert "gripper neither reached 0.0 mm nor stopped" in error
