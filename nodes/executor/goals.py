@@ -17,7 +17,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from msgs_py import BlockSet, ExecutorStatus, MessageError, Plan, PlannerStatus, Scene
+from msgs_py import BlockSet, ExecutorStatus, MessageError, Plan, PlannerStatus, Scene, Workspace
 from msgs_py.cell import TABLE_MARGIN
 from msgs_py.tasks import BlockError, RearrangeFeedback
 from nodes.executor.verify import goal_errors
@@ -40,7 +40,8 @@ def check_layout(layout: Scene, detection: BlockSet | None,
     it, where fingers stand) must lie in the executor's ``safe_box`` [x_min, x_max, y_min,
     y_max, ...] and within the arm's ``reach``; every block the goal names must be one the
     cell knows (seen or occluded in ``detection``); there must be no more slots than blocks;
-    and the blocks seen must stand inside the workspace. ``detection=None`` (an executor just
+    and the blocks seen must stand inside the workspace or on its table margin (the executor
+    brings those in before it runs a plan). ``detection=None`` (an executor just
     started, which has not seen the blocks yet) skips the checks against the blocks: the
     planner makes them when it plans, and a goal it refuses fails with its reason.
 
@@ -72,11 +73,12 @@ def check_layout(layout: Scene, detection: BlockSet | None,
     if goal.n_slots > len(known):
         where = "layout.goal.grid" if goal.grid is not None else "layout.goal.slots"
         raise MessageError(where, goal.n_slots, f"more goal slots than blocks ({len(known)})")
-    for block in detection.blocks:
-        if not ws.contains_square(block, layout.block_size):
+    table = Workspace(ws.x_min - m, ws.x_max + m, ws.y_min - m, ws.y_max + m)
+    for block in detection.blocks:  # one on the table margin is brought in by the executor
+        if not table.contains_square(block, layout.block_size):
             raise MessageError("layout.workspace", ws.to_dict(),
                                f"block {block.id} at ({block.x:.3f}, {block.y:.3f}) stands "
-                               "outside it")
+                               f"outside it and its {m} m table margin")
 
 
 def plan_is_for(plan: Plan | None, layout: Scene) -> bool:

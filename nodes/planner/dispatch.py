@@ -10,9 +10,10 @@ shared out here (near-goal first attempt, fallbacks) and nowhere else.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Sequence
 
-from msgs_py import MessageError, Scene
+from msgs_py import BlockPose, MessageError, Scene, Workspace
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.outcome import PlanOutcome
@@ -130,3 +131,23 @@ def plan_kind(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig, budget
 def _timed(outcome: PlanOutcome, budget: Budget) -> PlanOutcome:
     """``outcome`` with the planning time counted from the start of ``budget``."""
     return dataclasses.replace(outcome, planning_time_s=budget.elapsed())
+
+
+def pulled_inside(blocks: Sequence[BlockPose], layout: Scene, margin: float
+                  ) -> tuple[BlockPose, ...]:
+    """The blocks, those seen on the workspace's table margin (within ``margin`` of its edge:
+    knocked there, or seen there by a camera a centimetre off) moved straight in until their
+    footprint is inside. The plan starts from there; the executor brings such a block in
+    before it runs the plan, and replans if it then stands elsewhere. Blocks further out are
+    left as they are (the scene refuses them, naming the block)."""
+    ws, size = layout.workspace, layout.block_size
+    table = Workspace(ws.x_min - margin, ws.x_max + margin, ws.y_min - margin, ws.y_max + margin)
+    out = []
+    for b in blocks:
+        if ws.contains_square(b, size) or not table.contains_square(b, size):
+            out.append(b)
+            continue
+        half = size / 2 * (abs(math.cos(b.theta)) + abs(math.sin(b.theta))) + 1e-6
+        out.append(BlockPose(b.id, min(max(b.x, ws.x_min + half), ws.x_max - half),
+                             min(max(b.y, ws.y_min + half), ws.y_max - half), b.theta))
+    return tuple(out)

@@ -32,6 +32,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError, PlannerStatus, Scene
+from msgs_py.cell import TABLE_MARGIN
 from msgs_py.interface_codecs import (
     block_set_from_msg,
     goal_layout_from_msg,
@@ -47,7 +48,7 @@ from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.planner.cli import PLANNER_PARAMETERS
 from nodes.planner.config import PlannerConfig
-from nodes.planner.dispatch import check_goal, goal_kind, plan_goal
+from nodes.planner.dispatch import check_goal, goal_kind, plan_goal, pulled_inside
 from nodes.planner.markers import plan_markers
 from nodes.planner.unlabeled.config import UnlabeledConfig
 
@@ -65,7 +66,8 @@ def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str
     if unseen:
         raise MessageError("goal.poses", unseen, f"the goal names blocks that were never "
                            f"detected (seen: {sorted(seen)})")
-    return layout.with_blocks(detection.blocks), ""
+    return layout.with_blocks(pulled_inside(detection.blocks, layout, TABLE_MARGIN)), ""
+
 
 
 #: A block this far from where it stood in the detection being planned from has moved.

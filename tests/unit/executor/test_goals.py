@@ -40,6 +40,9 @@ def test_a_goal_the_cell_can_do_passes():
     check_layout(LAYOUT, BlockSet(BLOCKS), BOX)
     check_layout(LAYOUT, BlockSet(BLOCKS[:1], missing=(2,)), BOX)  # 2 is known, hidden
     check_layout(LAYOUT, None, BOX)  # no detection yet: the planner checks the ids
+    # a block 15 mm over the workspace's edge stands on the table margin: brought in
+    edge = Scene(Workspace(0.45, 0.81, -0.35, 0.35), 0.0508, (), LAYOUT.goal)
+    check_layout(edge, BlockSet(BLOCKS), BOX)
 
 
 def test_goals_the_cell_cannot_do_are_refused_naming_the_field():
