@@ -100,6 +100,7 @@ class ExecutorCore(FaultHandling):
         self._grasp_tries = 0
         self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
         self._probes = 0  # the plan's first actions that are the camera check's re-grips
+        self._separations = 0  # overlapping blocks set apart in a row
         self._replan_sent_at: float | None = None
         self._rejected_plans: set[str] = set()
         self._pending_plan: Plan | None = None
@@ -439,7 +440,8 @@ class ExecutorCore(FaultHandling):
         if self.held is not None:  # something in the fingers: put it down first
             self._recover_held_block()
             return
-        if plan.scene is not None and self._bring_in_outside_block(plan):
+        if plan.scene is not None and (self._bring_in_outside_block(plan)
+                                       or self._separate_overlapping_blocks(plan)):
             return
         if self._purpose is Purpose.START:
             self._check_plan_start()

@@ -22,6 +22,7 @@ from nodes.executor.recovery import (
     free_spot,
     let_go_steps,
     outside,
+    overlapping_ids,
     set_down_steps,
 )
 from nodes.executor.states import After, Held, Purpose, State
@@ -35,6 +36,8 @@ if TYPE_CHECKING:
 else:
     _Base = object
 
+#: Tries to set overlapping blocks apart before giving up (each is a pick-and-place and a look).
+MAX_SEPARATIONS = 3
 #: Deceleration when a fault stops the arm mid-move (m/s^2).
 BRAKE_DECEL = 5.0
 
@@ -162,6 +165,48 @@ class FaultHandling(_Base):
         self._look_after_recovery = self._purpose  # then judge what was being judged
         self._enter(State.RECOVERING)
         self._start_runner(set_down_steps(block, where, yaw, self.geo, self.cfg), After.RECOVERED)
+
+    def _separate_overlapping_blocks(self, plan: Plan) -> bool:
+        """Two perceived blocks overlap (one knocked against or onto another, leaning on it):
+        no plan starts from that, so one of them is picked up and set down at the nearest free
+        spot, the block of the action in hand first. False when no two blocks overlap."""
+        assert plan.scene is not None
+        pairs = overlapping_ids(self.perceived, self.geo.block_size)
+        if not pairs:
+            self._separations = 0
+            return False
+        if self._separations >= MAX_SEPARATIONS:
+            self._fail(f"blocks {list(pairs[0])} still overlap after {self._separations} tries "
+                       "to set one of them apart")
+            return True
+        acting = plan.actions[self.index].block if self.index < len(plan.actions) else None
+        a, b = next((pair for pair in pairs if acting in pair), pairs[0])
+        block, partner = (b, a) if b == acting else (a, b)
+        rest = {k: p for k, p in self.perceived.items() if k != partner}
+        grasp = free_grasp(rest, block, self.geo, self._table(plan))
+        if grasp is None:
+            block, partner = partner, block
+            rest = {k: p for k, p in self.perceived.items() if k != partner}
+            grasp = free_grasp(rest, block, self.geo, self._table(plan))
+        at = self.perceived[block]
+        spot = free_spot({k: p for k, p in self.perceived.items() if k != block},
+                         plan.scene.workspace, self.geo, at.theta, (at.x, at.y),
+                         table_margin_of(plan.params))
+        if grasp is None or spot is None:
+            self._fail(f"blocks {block} and {partner} overlap and neither can be " + (
+                "grasped" if grasp is None else "set down anywhere free"))
+            return True
+        self._separations += 1
+        self.detail = (f"blocks {block} and {partner} overlap: setting block {block} apart, "
+                       f"from ({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})")
+        self._log(self.detail)
+        self._picked_from = at
+        self.expected[block] = spot
+        self._look_after_recovery = self._purpose
+        self._enter(State.RECOVERING)
+        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg),
+                           After.RECOVERED)
+        return True
 
     def _bring_in_outside_block(self, plan: Plan) -> bool:
         """A perceived block outside the workspace (dropped, knocked): pick it up and set it

@@ -16,7 +16,12 @@ import shapely
 
 from msgs_py import PickPlace, Pose2D, Workspace
 from msgs_py.cell import BLOCK_SIZE, TABLE_MARGIN, GripperGeometry
-from msgs_py.footprint import block_corners, grasp_finger_corners, to_polygons
+from msgs_py.footprint import (
+    block_corners,
+    grasp_finger_corners,
+    overlapping_blocks,
+    to_polygons,
+)
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import pick_place_steps
@@ -86,6 +91,18 @@ def outside(perceived: Mapping[int, Pose2D], workspace: Workspace, block_size: f
     """Ids of the perceived blocks whose footprint leaves the workspace."""
     return sorted(b for b, pose in perceived.items()
                   if not workspace.contains_square(pose, block_size))
+
+
+def overlapping_ids(perceived: Mapping[int, Pose2D], block_size: float
+                    ) -> list[tuple[int, int]]:
+    """Pairs of perceived blocks whose footprints overlap (a block leaning on another, seen
+    from above), as (smaller id, larger id)."""
+    ids = sorted(perceived)
+    if len(ids) < 2:
+        return []
+    p = np.array([[perceived[b].x, perceived[b].y, perceived[b].theta] for b in ids])
+    pairs = overlapping_blocks(block_corners(p[:, 0], p[:, 1], p[:, 2], block_size))
+    return [(ids[i], ids[j]) for i, j in pairs]
 
 
 def fingers_clear(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry,

@@ -40,7 +40,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
     State.OBSERVING: {
         State.OBSERVING: "look again (from the park pose)",
         State.RUNNING: "the world is as expected: the next action",
-        State.RECOVERING: "a block outside the workspace, or one in the fingers: deal with it",
+        State.RECOVERING: "a block outside the workspace, two blocks overlapping, or one in the "
+                          "fingers: deal with it",
         State.REPLANNING: "the world drifted, or a plan must be checked against it",
         State.DONE: "every block verified at its goal",
         State.IDLE: "the plan is gone",

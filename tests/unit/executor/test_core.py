@@ -648,3 +648,22 @@ def test_no_camera_check_when_no_block_has_room_for_open_fingers():
     world.run(lambda: core.state is State.RUNNING)
     world.run(lambda: any("camera check skipped" in line for line in world.logs), max_t=1.0)
     assert len(core.plan.actions) == 1
+
+
+def test_a_block_knocked_onto_another_is_set_apart_and_the_plan_goes_on():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def knock(actions_done):
+        if actions_done == 1:  # block 2 shoved against block 1: seen overlapping it by 1 cm
+            p = world.blocks[1]
+            world.blocks[2] = Pose2D(p.x + 0.041, p.y, p.theta)
+
+    world.disturb = knock
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
+    assert "recovering" in world.states
+    # the plan goes on from where block 2 was set down (its next pick starts there)
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
