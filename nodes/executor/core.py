@@ -597,12 +597,18 @@ class ExecutorCore(FaultHandling):
         plan = self.plan
         if not isinstance(action, PickPlace) or plan is None or plan.scene is None:
             return None
+        return self._wide_opening({**self.expected, action.block: start}, action.block,
+                                  action.grasp, self._table(plan))
+
+    def _wide_opening(self, around: dict[int, Pose2D], block: int, grasp: int,
+                      table: Workspace) -> float | None:
+        """The ``pick_clearance`` opening for ``block`` among ``around`` if its fingers clear
+        every other block and stand on ``table``; None (the plan's opening) otherwise."""
         wide = dataclasses.replace(self.geo, approach_clearance=max(
             self.cfg.pick_clearance, self.geo.approach_clearance))
         if wide.approach_opening > GRIPPER_STROKE - 0.001:
             return None
-        around = {**self.expected, action.block: start}
-        if not fingers_clear(around, action.block, wide, action.grasp, self._table(plan)):
+        if not fingers_clear(around, block, wide, grasp, table):
             return None
         return wide.approach_opening
 

@@ -204,7 +204,8 @@ class FaultHandling(_Base):
         self.expected[block] = spot
         self._look_after_recovery = self._purpose
         self._enter(State.RECOVERING)
-        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg),
+        opening = self._wide_opening(dict(rest), block, grasp, self._table(plan))
+        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg, opening),
                            After.RECOVERED)
         return True
 
@@ -236,7 +237,8 @@ class FaultHandling(_Base):
         self.expected[block] = spot
         self._look_after_recovery = self._purpose
         self._enter(State.RECOVERING)
-        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg),
+        opening = self._wide_opening(dict(self.perceived), block, grasp, reach)
+        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg, opening),
                            After.RECOVERED)
         return True
 

@@ -155,6 +155,7 @@ def let_go_steps(geo: GripperGeometry, cfg: ExecutorConfig, label: str) -> list[
 
 
 def bring_in_steps(block: int, at: Pose2D, to: Pose2D, grasp: int, geo: GripperGeometry,
-                   cfg: ExecutorConfig) -> list[Step]:
-    """Pick the block up where it lies (outside the workspace) and place it at ``to``."""
-    return pick_place_steps(PickPlace(block, at, to, grasp), at, geo, cfg)
+                   cfg: ExecutorConfig, pick_opening: float | None = None) -> list[Step]:
+    """Pick the block up where it lies (outside the workspace, say) and place it at ``to``,
+    the fingers open to ``pick_opening`` (default: the plan's) to go down around it."""
+    return pick_place_steps(PickPlace(block, at, to, grasp), at, geo, cfg, pick_opening)

@@ -64,6 +64,7 @@ class World:
         self.disturb: Callable[[int], None] = lambda actions_done: None
         self.states: list[str] = []
         self.progress: list[tuple[str, int, int]] = []  # (state, action k, of n) as published
+        self.gripper_commands: list[tuple[str, float]] = []  # (executor detail, opening)
         self.logs: list[str] = []
         self.max_speed = 0.0
         core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
@@ -94,6 +95,8 @@ class World:
             if held is not None and holding is None and self.gripper is None:  # set down
                 self.blocks[held] = self.core.expected[held]
             held = holding
+            if out.gripper is not None:
+                self.gripper_commands.append((self.core.detail, out.gripper))
             if self.gripper is not None:
                 self.gripper.tick(t, out.gripper)
             done = int(self.core.metrics["actions_executed"])
@@ -666,4 +669,22 @@ def test_a_block_knocked_onto_another_is_set_apart_and_the_plan_goes_on():
     assert "recovering" in world.states
     # the plan goes on from where block 2 was set down (its next pick starts there)
     assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+
+
+def test_a_block_knocked_off_the_workspace_is_brought_back_with_wide_open_fingers():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def knock(actions_done):
+        if actions_done == 1:  # block 2 knocked onto the table margin, past x_max = 0.95
+            world.blocks[2] = Pose2D(0.955, 0.2, 0.1)
+
+    world.disturb = knock
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    assert any("bringing block 2 back into the workspace" in line for line in world.logs)
+    openings = [g for detail, g in world.gripper_commands if detail.startswith("bringing")]
+    wide = 0.0508 + 2 * CFG.pick_clearance
+    assert openings and max(openings) == pytest.approx(wide)  # room for a camera 1 cm off
     assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
