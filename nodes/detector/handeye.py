@@ -115,15 +115,20 @@ def _equations(s: Sample, centre: tuple[float, float]) -> tuple[np.ndarray, np.n
     return rows, rhs
 
 
-def estimate(samples: Sequence[Sample], centre: tuple[float, float]) -> Estimate | None:
-    """The error (dx, dy, w) about ``centre`` that best explains the samples; None with fewer
-    than two placements."""
+def estimate(samples: Sequence[Sample], centre: tuple[float, float],
+             with_turn: bool = True) -> Estimate | None:
+    """The error (dx, dy, w) about ``centre`` that best explains the samples (``with_turn``
+    False: the shift alone, w = 0); None with fewer than two placements."""
     if len(samples) < 2:
         return None
     equations = [_equations(s, centre) for s in samples]
     rows = np.vstack([r for r, _ in equations])
     rhs = np.concatenate([b for _, b in equations])
-    weights = np.tile([1.0 / POSITION_SIGMA] * 2 + [1.0 / YAW_SIGMA], len(samples))
+    if not with_turn:
+        keep = [k for k in range(len(rhs)) if k % 3 < 2]
+        rows, rhs = rows[keep][:, :2], rhs[keep]
+    per_sample = [1.0 / POSITION_SIGMA] * 2 + ([1.0 / YAW_SIGMA] if with_turn else [])
+    weights = np.tile(per_sample, len(samples))
     a_mat = rows * weights[:, None]
     b = rhs * weights
     solution, *_ = np.linalg.lstsq(a_mat, b, rcond=None)
@@ -133,10 +138,11 @@ def estimate(samples: Sequence[Sample], centre: tuple[float, float]) -> Estimate
     except np.linalg.LinAlgError:
         return None
     fit = rows @ solution - rhs
-    pos = fit[[k for k in range(len(rhs)) if (k % 3) < 2]]
-    dx, dy, w = (float(v) for v in solution)
+    pos = fit[[k for k in range(len(rhs)) if (k % len(per_sample)) < 2]]
+    dx, dy, w = (float(v) for v in (*solution, 0.0)[:3])
+    sigma = [float(math.sqrt(max(v, 0.0))) for v in np.diag(cov)] + [0.0]
     return Estimate(PlaneCorrection(dx, dy, w, centre[0], centre[1]),
-                    tuple(float(math.sqrt(max(v, 0.0))) for v in np.diag(cov)), len(samples),
+                    (sigma[0], sigma[1], sigma[2]), len(samples),
                     float(np.sqrt(np.mean(pos ** 2))))
 
 
@@ -257,6 +263,10 @@ class HandEye:
             self.log.append(f"placement at ({sample.placed.x:.3f}, {sample.placed.y:.3f}) "
                             f"left out of the camera check: it disagrees with the others by "
                             f"{misfit(sample, est.correction) * 1e3:.1f} mm (disturbed?)")
+        if est is not None and not worth_correcting(est, self.samples, self.corners):
+            # a turn the placements do not pin down yet (two at one spot, noisy yaws): the
+            # shift alone, which they do, is already worth having
+            est = estimate(self.samples, self.centre, with_turn=False)
         if est is None or not worth_correcting(est, self.samples, self.corners):
             return
         change = max(abs(est.correction.error_at(x, y) - self.correction.error_at(x, y))

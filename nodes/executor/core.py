@@ -101,6 +101,7 @@ class ExecutorCore(FaultHandling):
         self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
         self._probes = 0  # the plan's first actions that are the camera check's re-grips
         self._separations = 0  # overlapping blocks set apart in a row
+        self._bring_ins, self._bring_ins_of = 0, -1  # tries to bring block _of in, in a row
         self._replan_sent_at: float | None = None
         self._rejected_plans: set[str] = set()
         self._pending_plan: Plan | None = None

@@ -36,6 +36,11 @@ if TYPE_CHECKING:
 else:
     _Base = object
 
+#: A block brought back in is set down this far inside the workspace's edge (m): a camera
+#: a centimetre off (before its check) then still sees it inside.
+BRING_IN_INSET = 0.015
+#: Tries to bring the same block in before giving up.
+MAX_BRING_INS = 3
 #: Tries to set overlapping blocks apart before giving up (each is a pick-and-place and a look).
 MAX_SEPARATIONS = 3
 #: Deceleration when a fault stops the arm mid-move (m/s^2).
@@ -215,16 +220,25 @@ class FaultHandling(_Base):
         assert plan.scene is not None
         away = outside(self.perceived, plan.scene.workspace, self.geo.block_size)
         if not away:
+            self._bring_ins = 0
             return False
         block = away[0]
+        self._bring_ins = self._bring_ins + 1 if self._bring_ins_of == block else 1
+        self._bring_ins_of = block
+        at = self.perceived[block]
+        if self._bring_ins > MAX_BRING_INS:
+            self._fail(f"block {block} is still seen outside the workspace at ({at.x:.3f}, "
+                       f"{at.y:.3f}) after {MAX_BRING_INS} tries to bring it in")
+            return True
         margin = table_margin_of(plan.params)
         table = plan.scene.workspace
         reach = Workspace(table.x_min - 3 * margin, table.x_max + 3 * margin,
                           table.y_min - 3 * margin, table.y_max + 3 * margin)
         grasp = free_grasp(self.perceived, block, self.geo, reach)
-        at = self.perceived[block]
+        inset = Workspace(table.x_min + BRING_IN_INSET, table.x_max - BRING_IN_INSET,
+                          table.y_min + BRING_IN_INSET, table.y_max - BRING_IN_INSET)
         spot = free_spot({b: p for b, p in self.perceived.items() if b != block},
-                         plan.scene.workspace, self.geo, at.theta, (at.x, at.y), margin)
+                         inset, self.geo, at.theta, (at.x, at.y), margin + BRING_IN_INSET)
         if grasp is None or spot is None:
             self._fail(f"block {block} lies outside the workspace at ({at.x:.3f}, {at.y:.3f})"
                        " and cannot be " + ("grasped there" if grasp is None else

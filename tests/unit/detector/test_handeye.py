@@ -165,3 +165,24 @@ def test_placements_gripped_through_a_correction_agree_with_those_before_it():
     assert dropped == []
     assert est.rms_residual < 1e-4
     assert est.correction.dx == pytest.approx(d[0], abs=2e-4)
+
+
+def test_the_camera_checks_two_regrips_with_noisy_yaws_correct_the_shift_at_least():
+    from msgs_py import BlockPose, BlockSet
+    from msgs_py.placement import Placement
+    from nodes.detector.handeye import HandEye
+
+    d = (0.0135, -0.0039)  # a pure shift; the yaws below read 0.3 deg high (noise)
+    hand_eye = HandEye(CORNERS, CENTRE)
+    at = Pose2D(0.80, 0.20, 0.3)
+    true, t = at, 0
+    for k, yaw_noise in enumerate((0.3, 0.3)):
+        sample = placement(true, at, 0.3 + k * math.pi / 2, d, 0.0)
+        hand_eye.on_placement(Placement(3, at, sample.picked, 0.3 + k * math.pi / 2, t + 1))
+        true = Pose2D(*_xyt(hand_eye_true(sample, d, 0.0)))
+        t += 10**9
+        seen = sample.seen
+        out = hand_eye.correct(BlockSet((BlockPose(3, seen.x, seen.y,
+                                                   seen.theta + math.radians(yaw_noise)),), t))
+    assert hand_eye.log and "corrected from 2 placements" in hand_eye.log[0], hand_eye.log
+    assert out.blocks[0].pose.distance_to(true) < 3e-4
