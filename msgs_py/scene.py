@@ -36,6 +36,11 @@ SCHEMA_VERSION = 1
 CONTAINMENT_TOL = 1e-9
 
 
+def square_half_extent(side: float, theta: float) -> float:
+    """Half the x (and y) extent of a square of ``side`` turned by ``theta``."""
+    return 0.5 * side * (abs(math.cos(theta)) + abs(math.sin(theta)))
+
+
 @dataclass(frozen=True, slots=True)
 class Workspace:
     """Axis-aligned table region (m, ``world``) that blocks may occupy."""
@@ -59,9 +64,14 @@ class Workspace:
     def center(self) -> tuple[float, float]:
         return (0.5 * (self.x_min + self.x_max), 0.5 * (self.y_min + self.y_max))
 
+    def grown(self, margin: float) -> Workspace:
+        """This region with ``margin`` added on every side (negative: taken off)."""
+        return Workspace(self.x_min - margin, self.x_max + margin, self.y_min - margin,
+                         self.y_max + margin)
+
     def contains_square(self, pose: Pose2D | BlockPose, side: float) -> bool:
         """True when the whole footprint of a square of ``side`` at ``pose`` lies inside."""
-        half_extent = 0.5 * side * (abs(math.cos(pose.theta)) + abs(math.sin(pose.theta)))
+        half_extent = square_half_extent(side, pose.theta)
         return (
             pose.x - half_extent >= self.x_min - CONTAINMENT_TOL
             and pose.x + half_extent <= self.x_max + CONTAINMENT_TOL

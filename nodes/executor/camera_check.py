@@ -37,7 +37,7 @@ def probe_block(perceived: Mapping[int, Pose2D], geo: GripperGeometry, table: Wo
     ``margin`` for both closing axes; of those, the one nearest the table's centre (its
     placements then weigh the rotation least). None when no block has room."""
     wide = dataclasses.replace(geo, approach_clearance=clearance)
-    cx, cy = (table.x_min + table.x_max) / 2, (table.y_min + table.y_max) / 2
+    cx, cy = table.center
     roomy = [b for b in perceived
              if all(fingers_clear(perceived, b, wide, g, table, margin) for g in PROBE_GRASPS)]
     if not roomy:

@@ -367,10 +367,7 @@ class ExecutorCore(FaultHandling):
     def _table(self, plan: Plan) -> Workspace:
         """The table the fingers may stand on: the workspace and the plan's margin."""
         assert plan.scene is not None
-        margin = table_margin_of(plan.params)
-        ws = plan.scene.workspace
-        return Workspace(ws.x_min - margin, ws.x_max + margin, ws.y_min - margin,
-                         ws.y_max + margin)
+        return plan.scene.workspace.grown(table_margin_of(plan.params))
 
     # --- observing ------------------------------------------------------------------------------
     def _observe(self, purpose: Purpose, near: bool = False) -> None:

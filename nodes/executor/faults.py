@@ -202,16 +202,8 @@ class FaultHandling(_Base):
                 "grasped" if grasp is None else "set down anywhere free"))
             return True
         self._separations += 1
-        self.detail = (f"blocks {block} and {partner} overlap: setting block {block} apart, "
-                       f"from ({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})")
-        self._log(self.detail)
-        self._picked_from = at
-        self.expected[block] = spot
-        self._look_after_recovery = self._purpose
-        self._enter(State.RECOVERING)
-        opening = self._wide_opening(dict(rest), block, grasp, self._table(plan))
-        self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg, opening),
-                           After.RECOVERED)
+        self._move_aside(block, spot, grasp, rest, self._table(plan),
+                         f"blocks {block} and {partner} overlap: setting block {block} apart")
         return True
 
     def _bring_in_outside_block(self, plan: Plan) -> bool:
@@ -232,29 +224,34 @@ class FaultHandling(_Base):
             return True
         margin = table_margin_of(plan.params)
         table = plan.scene.workspace
-        reach = Workspace(table.x_min - 3 * margin, table.x_max + 3 * margin,
-                          table.y_min - 3 * margin, table.y_max + 3 * margin)
+        reach = table.grown(3 * margin)
         grasp = free_grasp(self.perceived, block, self.geo, reach)
-        inset = Workspace(table.x_min + BRING_IN_INSET, table.x_max - BRING_IN_INSET,
-                          table.y_min + BRING_IN_INSET, table.y_max - BRING_IN_INSET)
         spot = free_spot({b: p for b, p in self.perceived.items() if b != block},
-                         inset, self.geo, at.theta, (at.x, at.y), margin + BRING_IN_INSET)
+                         table.grown(-BRING_IN_INSET), self.geo, at.theta, (at.x, at.y),
+                         margin + BRING_IN_INSET)
         if grasp is None or spot is None:
             self._fail(f"block {block} lies outside the workspace at ({at.x:.3f}, {at.y:.3f})"
                        " and cannot be " + ("grasped there" if grasp is None else
                                              "set down anywhere free inside"))
             return True
-        self.detail = (f"bringing block {block} back into the workspace from "
-                       f"({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})")
+        self._move_aside(block, spot, grasp, self.perceived, reach,
+                         f"bringing block {block} back into the workspace")
+        return True
+
+    def _move_aside(self, block: int, spot: Pose2D, grasp: int, around: dict[int, Pose2D],
+                    table: Workspace, why: str) -> None:
+        """Recover by picking ``block`` where it is seen and setting it down at ``spot``, the
+        fingers wide open where they clear ``around`` on ``table``; then look again."""
+        at = self.perceived[block]
+        self.detail = f"{why}, from ({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})"
         self._log(self.detail)
         self._picked_from = at
         self.expected[block] = spot
         self._look_after_recovery = self._purpose
         self._enter(State.RECOVERING)
-        opening = self._wide_opening(dict(self.perceived), block, grasp, reach)
+        opening = self._wide_opening(dict(around), block, grasp, table)
         self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg, opening),
                            After.RECOVERED)
-        return True
 
     # --- stopping -------------------------------------------------------------------------------
     def _stop_safely(self, reason: str, failed: bool) -> None:

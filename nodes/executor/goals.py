@@ -17,7 +17,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from msgs_py import BlockSet, ExecutorStatus, MessageError, Plan, PlannerStatus, Scene, Workspace
+from msgs_py import BlockSet, ExecutorStatus, MessageError, Plan, PlannerStatus, Scene
 from msgs_py.cell import TABLE_MARGIN
 from msgs_py.tasks import BlockError, RearrangeFeedback
 from nodes.executor.verify import goal_errors
@@ -73,7 +73,7 @@ def check_layout(layout: Scene, detection: BlockSet | None,
     if goal.n_slots > len(known):
         where = "layout.goal.grid" if goal.grid is not None else "layout.goal.slots"
         raise MessageError(where, goal.n_slots, f"more goal slots than blocks ({len(known)})")
-    table = Workspace(ws.x_min - m, ws.x_max + m, ws.y_min - m, ws.y_max + m)
+    table = ws.grown(m)
     for block in detection.blocks:  # one on the table margin is brought in by the executor
         if not table.contains_square(block, layout.block_size):
             raise MessageError("layout.workspace", ws.to_dict(),

@@ -10,10 +10,10 @@ shared out here (near-goal first attempt, fallbacks) and nowhere else.
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
 
-from msgs_py import BlockPose, MessageError, Scene, Workspace
+from msgs_py import BlockPose, MessageError, Scene
+from msgs_py.scene import square_half_extent
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.outcome import PlanOutcome
@@ -141,13 +141,13 @@ def pulled_inside(blocks: Sequence[BlockPose], layout: Scene, margin: float
     before it runs the plan, and replans if it then stands elsewhere. Blocks further out are
     left as they are (the scene refuses them, naming the block)."""
     ws, size = layout.workspace, layout.block_size
-    table = Workspace(ws.x_min - margin, ws.x_max + margin, ws.y_min - margin, ws.y_max + margin)
+    table = ws.grown(margin)
     out = []
     for b in blocks:
         if ws.contains_square(b, size) or not table.contains_square(b, size):
             out.append(b)
             continue
-        half = size / 2 * (abs(math.cos(b.theta)) + abs(math.sin(b.theta))) + 1e-6
+        half = square_half_extent(size, b.theta) + 1e-6
         out.append(BlockPose(b.id, min(max(b.x, ws.x_min + half), ws.x_max - half),
                              min(max(b.y, ws.y_min + half), ws.y_max - half), b.theta))
     return tuple(out)
