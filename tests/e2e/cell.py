@@ -6,9 +6,16 @@ goal node: goals come on /rearrange)."""
 from __future__ import annotations
 
 import importlib
+import math
 from pathlib import Path
 
+from densepack_interfaces.msg import BlockPoseArray
+
+from msgs_py import Scene
+from msgs_py import interface_codecs as ic
 from nodes.common.paths import config_path
+from nodes.common.qos import RELIABLE
+from nodes.executor.verify import goal_errors
 from nodes.tools.cell import load_cell
 from nodes.tools.cell_run import ACTION_CELL_PARAMS, ACTION_CELL_WITHOUT
 
@@ -24,3 +31,15 @@ def start_cell(ros, scene_file: Path | str, action: bool = False) -> None:
     for launch in launches:
         spec = importlib.import_module(launch.module).SPEC
         ros.add(spec.factory(context=ros.context, cli_args=launch.ros_args()))
+
+
+def assert_every_block_at_its_goal(ros, scene: Scene, slots: int) -> None:
+    """By the sim's ground truth, each of the ``slots`` goal slots holds its block within
+    3 mm and 2 degrees."""
+    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
+                                                       timeout=30, qos=RELIABLE))
+    errors = goal_errors({b.id: b.pose for b in truth.blocks}, scene)
+    assert len(errors) == slots
+    for e in errors:
+        assert e.position_error <= 0.003, e.describe()
+        assert math.degrees(e.yaw_error) <= 2.0, e.describe()

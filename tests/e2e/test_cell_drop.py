@@ -10,8 +10,6 @@ block may be lost, and the ground truth must show every block within 3 mm / 2 de
 
 from __future__ import annotations
 
-import math
-
 import pytest
 from action_msgs.msg import GoalStatus
 from densepack_interfaces.msg import BlockPoseArray, SimEvents
@@ -20,13 +18,12 @@ from densepack_interfaces.msg import SimFault as SimFaultMsg
 from msgs_py import interface_codecs as ic
 from msgs_py import save_scene
 from msgs_py.sim import SimFault
-from nodes.common.qos import LATCHED, RELIABLE
-from nodes.executor.verify import goal_errors
+from nodes.common.qos import LATCHED
 from nodes.sim.layout import random_sim_scene
 from nodes.tools.goal import goal_layout
 from tests.actions import Goals
 
-from .cell import start_cell
+from .cell import assert_every_block_at_its_goal, start_cell
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
 
@@ -53,10 +50,4 @@ def test_a_block_dropped_mid_carry_is_noticed_recovered_and_the_goal_still_reach
                                                          qos=LATCHED))
     assert any(e.type == "fault" for e in events.events), events.to_dict()
     assert events.blocks_lost == 0
-    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
-                                                       timeout=30, qos=RELIABLE))
-    errors = goal_errors({b.id: b.pose for b in truth.blocks}, scene)
-    assert len(errors) == 4
-    for e in errors:
-        assert e.position_error <= 0.003, e.describe()
-        assert math.degrees(e.yaw_error) <= 2.0, e.describe()
+    assert_every_block_at_its_goal(ros, scene, 4)

@@ -8,8 +8,6 @@ its 2x2 goal by the simulator's ground truth, none lost, no unintended contact.
 
 from __future__ import annotations
 
-import math
-
 import pytest
 from action_msgs.msg import GoalStatus
 from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus, GripperStatus, SimEvents
@@ -17,13 +15,12 @@ from geometry_msgs.msg import PoseStamped
 
 from msgs_py import interface_codecs as ic
 from msgs_py import save_scene
-from nodes.common.qos import LATCHED, RELIABLE
-from nodes.executor.verify import goal_errors
+from nodes.common.qos import LATCHED
 from nodes.sim.layout import random_sim_scene
 from nodes.tools.goal import goal_layout
 from tests.actions import Goals, wait_future
 
-from .cell import start_cell
+from .cell import assert_every_block_at_its_goal, start_cell
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
 
@@ -58,13 +55,7 @@ def test_four_blocks_reach_their_grid_through_the_action_after_a_cancel(ros, tmp
     assert len(result.block_errors) == 4 and all(e.found for e in result.block_errors)
     assert result.metrics["actions_executed"] >= 4
 
-    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
-                                                       timeout=30, qos=RELIABLE))
-    errors = goal_errors({b.id: b.pose for b in truth.blocks}, scene)
-    assert len(errors) == 4
-    for e in errors:
-        assert e.position_error <= 0.003, e.describe()
-        assert math.degrees(e.yaw_error) <= 2.0, e.describe()
+    assert_every_block_at_its_goal(ros, scene, 4)
     events = ic.sim_events_from_msg(ros.wait_for_message("/sim/events", SimEvents, timeout=30,
                                                          qos=LATCHED))
     assert events.blocks_lost == 0
