@@ -654,7 +654,8 @@ def placement_to_msg(placement: Placement) -> ifc.Placement:
     msg = ifc.Placement(block=_block_id("block", placement.block),
                         pose=pose_to_msg(placement.pose),
                         picked_from=pose_to_msg(placement.picked_from, "picked_from"),
-                        closing_axis_yaw=_float("closing_axis_yaw", placement.closing_axis_yaw))
+                        closing_axis_yaw=_float("closing_axis_yaw", placement.closing_axis_yaw),
+                        squared=bool(placement.squared))
     msg.header.stamp = ns_to_stamp(placement.stamp_ns, "stamp_ns")
     msg.header.frame_id = "world"
     return msg
@@ -666,7 +667,7 @@ def placement_from_msg(msg: ifc.Placement) -> Placement:
     return Placement(int(msg.block), pose_from_msg(msg.pose),
                      pose_from_msg(msg.picked_from, "picked_from"),
                      _float("closing_axis_yaw", msg.closing_axis_yaw),
-                     stamp_to_ns(msg.header.stamp))
+                     stamp_to_ns(msg.header.stamp), bool(msg.squared))
 
 
 # --- the simulator's events and disturbances -------------------------------------------------

@@ -14,13 +14,16 @@ class Placement:
     """Block ``block`` released at ``pose`` (the TCP's x, y and the block's planned yaw, in
     ``world``) at ``stamp_ns``; it was perceived at ``picked_from`` when the fingers closed
     on it, along the axis at ``closing_axis_yaw`` (rad). The fingers centre a block along
-    that axis only: across it, the block keeps the offset it was picked up with."""
+    that axis only: across it, the block keeps the offset it was picked up with, unless
+    ``squared``: the fingers closed on it along each of its axes in turn at this TCP (the
+    camera check), so it stands on the TCP on both axes."""
 
     block: int
     pose: Pose2D
     picked_from: Pose2D
     closing_axis_yaw: float
     stamp_ns: int = 0
+    squared: bool = False
 
     def __post_init__(self) -> None:
         if self.block < 0:

@@ -14,7 +14,10 @@ axis a and released with the TCP at G is seen at
 (once a correction is in use the fingers grip at the corrected Q instead of P, and the block
 keeps ``perp_a(P - Q)`` more across them),
 
-(the pads square the block up with the tool, so the yaw error shows whole). Both are linear in
+(the pads square the block up with the tool, so the yaw error shows whole). A block gripped
+along each of its axes in turn at one TCP (the executor's camera check, a ``squared``
+placement) keeps no offset at all: ``O = G + e(G)``, both axes from one placement. Both are
+linear in
 (dx, dy, w) for a fixed centre c: a few placements with closing axes in different directions
 give the error by least squares, and the detector then corrects its output (``PlaneCorrection``)
 so that perception and arm agree. Pure logic (numpy), no ROS.
@@ -77,13 +80,20 @@ class Sample:
     """One placement: the block perceived at ``picked`` (in the camera's uncorrected frame),
     gripped with the fingers centred at ``gripped`` (arm frame; None: at ``picked``, as when no
     correction is in use), released with the TCP at ``placed`` (arm frame), closing axis at
-    ``axis_yaw``, then seen at ``seen`` (uncorrected)."""
+    ``axis_yaw``, then seen at ``seen`` (uncorrected). ``squared``: gripped along both axes
+    in turn at ``placed``, so it kept no offset from its pick."""
 
     picked: Pose2D
     placed: Pose2D
     axis_yaw: float
     seen: Pose2D
     gripped: Pose2D | None = None
+    squared: bool = False
+
+    @property
+    def constraints(self) -> int:
+        """Position equations that pin the error: one (along the closing axis) or two."""
+        return 2 if self.squared else 1
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,8 +108,8 @@ def _equations(s: Sample, centre: tuple[float, float]) -> tuple[np.ndarray, np.n
     """One sample's three equations in (dx, dy, w): position x, y and yaw, unweighted."""
     cx, cy = centre
     a = np.array([math.cos(s.axis_yaw), math.sin(s.axis_yaw)])
-    par = np.outer(a, a)  # v -> (v.a) a
-    perp = np.eye(2) - par
+    par = np.eye(2) if s.squared else np.outer(a, a)  # v -> (v.a) a: centred along a
+    perp = np.eye(2) - par  # what the fingers left where it was
     turn = np.array([[0.0, -1.0], [1.0, 0.0]])  # d/dw of R(w) v at w = 0
     g = np.array([s.placed.x - cx, s.placed.y - cy])
     p = np.array([s.picked.x - cx, s.picked.y - cy])
@@ -118,8 +128,9 @@ def _equations(s: Sample, centre: tuple[float, float]) -> tuple[np.ndarray, np.n
 def estimate(samples: Sequence[Sample], centre: tuple[float, float],
              with_turn: bool = True) -> Estimate | None:
     """The error (dx, dy, w) about ``centre`` that best explains the samples (``with_turn``
-    False: the shift alone, w = 0); None with fewer than two placements."""
-    if len(samples) < 2:
+    False: the shift alone, w = 0); None while they pin fewer than two position equations
+    (two placements, or one squared)."""
+    if sum(s.constraints for s in samples) < 2:
         return None
     equations = [_equations(s, centre) for s in samples]
     rows = np.vstack([r for r, _ in equations])
@@ -172,7 +183,10 @@ def robust_estimate(samples: Sequence[Sample], centre: tuple[float, float]
 
 
 def axis_spread(samples: Sequence[Sample]) -> float:
-    """Largest |sin| of the angle between two samples' closing axes (0: all parallel)."""
+    """Largest |sin| of the angle between two samples' closing axes (0: all parallel; 1
+    with a squared sample, gripped along two square axes)."""
+    if any(s.squared for s in samples):
+        return 1.0
     yaws = [s.axis_yaw for s in samples]
     return max((abs(math.sin(a - b)) for i, a in enumerate(yaws) for b in yaws[i + 1:]),
                default=0.0)
@@ -224,6 +238,8 @@ class HandEye:
         self.log: list[str] = []
 
     def on_placement(self, placement: Placement) -> None:
+        # a block set down again before it was seen: only the last placement says where it is
+        self.pending = [(p, raw) for p, raw in self.pending if p.block != placement.block]
         if placement.stamp_ns < self.corrected_at_ns + SETTLE_AFTER_CORRECTION_S * 1e9:
             return  # picked while another correction was in use: its pick pose is unreliable
         self.pending.append((placement, self._raw(placement.picked_from)))
@@ -246,7 +262,8 @@ class HandEye:
                 still.append((placement, picked))
             elif placement.block in seen:
                 self.samples.append(Sample(picked, placement.pose, placement.closing_axis_yaw,
-                                           seen[placement.block], placement.picked_from))
+                                           seen[placement.block], placement.picked_from,
+                                           placement.squared))
                 self._update(raw.stamp_ns)
         self.pending = still
         if self.correction == PlaneCorrection(cx=self.centre[0], cy=self.centre[1]):
@@ -275,7 +292,8 @@ class HandEye:
             return
         self.correction = est.correction
         self.corrected_at_ns = stamp_ns
-        self.log.append(f"perception corrected from {est.samples} placements of the arm: "
+        plural = "s" if est.samples != 1 else ""
+        self.log.append(f"perception corrected from {est.samples} placement{plural} of the arm: "
                         f"{est.correction.describe()} (RMS residual "
                         f"{est.rms_residual * 1e3:.2f} mm)")
 

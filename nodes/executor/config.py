@@ -94,7 +94,7 @@ class ExecutorConfig:
         cell.ACCEPT_TOLERANCE_YAW_DEG,
         "... and this close in yaw (modulo 90 degrees)", unit="deg")
     camera_check: bool = param(
-        True, "before the first action of the executor's first run, re-grip the most isolated "
+        True, "before the first action of the executor's first run, grip the most isolated "
         "block in place along both its axes so the detector can check its calibration "
         "against the arm (nodes/executor/camera_check.py)")
     camera_check_margin: float = param(

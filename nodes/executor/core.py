@@ -38,7 +38,7 @@ from msgs_py import BlockSet, ExecutorStatus, PickPlace, Plan, Pose2D, Workspace
 from msgs_py.actions import Action
 from msgs_py.cell import GRIPPER_STROKE, GripperGeometry, table_margin_of
 from msgs_py.status import GripperStatus
-from nodes.executor.camera_check import probe_actions, probe_block
+from nodes.executor.camera_check import PROBE_GRASPS, probe_actions, probe_block, probe_steps
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.faults import FaultHandling
 from nodes.executor.ledger import TimeLedger
@@ -60,6 +60,8 @@ from nodes.executor.verify import Deviation, deviations, goal_errors
 MAX_TICKS_PER_STEP = 2.0
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
 GRASP_RETRIES = 2
+#: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
+IDLE_LOOK_SOON_S = 0.5
 
 
 
@@ -114,6 +116,7 @@ class ExecutorCore(FaultHandling):
         self.ledger = TimeLedger()
         self._started_at: float | None = None
         self._last_idle_look: float | None = None
+        self._look_soon = False  # the planner waits: the next idle look need not wait a period
         self._now = 0.0
         self._out = Outputs()
         self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
@@ -167,6 +170,12 @@ class ExecutorCore(FaultHandling):
             self._pending_plan = plan  # finish what the arm is doing first
             return
         self._adopt(plan)
+
+    def on_planner_waiting(self) -> None:
+        """The planner says it waits (for a detection, say). A planner that started after the
+        executor's last idle look would wait for the next one, up to ``idle_look_period_s``,
+        with the simulated clock running: while idle without a plan, look again soon."""
+        self._look_soon = True
 
     def on_planner_failed(self, reason: str) -> None:
         """The planner found no plan for our replan request: what is left may be beyond its
@@ -266,8 +275,10 @@ class ExecutorCore(FaultHandling):
         if self.commanded is None or self.commanded.distance_to(self.cfg.park) > 1e-6:
             self._start_runner(park_steps(self.cfg), After.IDLE_PARKED)
             return
-        if self._last_idle_look is None or now - self._last_idle_look >= period:
+        due = min(period, IDLE_LOOK_SOON_S) if self._look_soon else period
+        if self._last_idle_look is None or now - self._last_idle_look >= due:
             self._last_idle_look = now
+            self._look_soon = False
             self._want_trigger = True
 
     def _enter(self, state: State) -> None:
@@ -347,8 +358,8 @@ class ExecutorCore(FaultHandling):
             self._verify_goal()
 
     def _check_camera_first(self) -> None:
-        """Before the first action of the executor's first run: the camera check's two
-        in-place re-grips go in front of the plan (``nodes.executor.camera_check``)."""
+        """Before the first action of the executor's first run: the camera check's grips in
+        place go in front of the plan (``nodes.executor.camera_check``)."""
         plan = self.plan
         if self._camera_checked or plan is None or plan.scene is None or not plan.actions:
             return
@@ -362,7 +373,7 @@ class ExecutorCore(FaultHandling):
         probes = probe_actions(block, self.expected[block])
         self.plan = dataclasses.replace(plan, actions=probes + tuple(plan.actions))
         self._probes = len(probes)
-        self._log(f"camera check: block {block} re-gripped in place along both of its axes")
+        self._log(f"camera check: block {block} to be gripped in place along both of its axes")
 
     def _table(self, plan: Plan) -> Workspace:
         """The table the fingers may stand on: the workspace and the plan's margin."""
@@ -573,14 +584,18 @@ class ExecutorCore(FaultHandling):
             return
         self._enter(State.RUNNING)
         if self.index < self._probes:
-            self.detail = f"camera check {self.index + 1}/{self._probes}: block {action.block} " \
-                          f"re-gripped in place (grasp {action.grasp})"
+            self.detail = f"camera check: block {action.block} gripped in place along both " \
+                          "of its axes"
         else:
             self.detail = f"action {self.index - self._probes + 1}/" \
                           f"{len(plan.actions) - self._probes}: {action.type} block {action.block}"
         self._log(self.detail)
-        steps = action_steps(action, start, self.geo, self.cfg,
-                             self._pick_opening(action, start))
+        opening = self._pick_opening(action, start)
+        if self.index < self._probes:
+            steps = probe_steps(action.block, start, self.geo, self.cfg,
+                                opening if opening is not None else self.geo.approach_opening)
+        else:
+            steps = action_steps(action, start, self.geo, self.cfg, opening)
         self._picked_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
         if self._looks_after(self.index) and plan.scene is not None:
@@ -686,7 +701,7 @@ class ExecutorCore(FaultHandling):
         assert plan is not None
         if self.index < self._probes:
             self.metrics["camera_check_regrips"] = (
-                self.metrics.get("camera_check_regrips", 0.0) + 1.0)
+                self.metrics.get("camera_check_regrips", 0.0) + len(PROBE_GRASPS))
         else:
             self.metrics["actions_executed"] += 1
             kind = f"{plan.actions[self.index].type}_executed"  # pick_place_executed, ...

@@ -71,7 +71,7 @@ class FaultHandling(_Base):
                 fault = fault or (None if last is None else self.supervisor.after_grip(last))
                 if fault is None:
                     self.supervisor.expect_hold(step.holds)
-                    self.held = Held(step.holds, self._picked_from)
+                    self.held = Held(step.holds, self._picked_from, step.squares)
             else:  # a release, or the fingers opened before a descent
                 if last is not None and self.held is not None:
                     fault = fault or self.supervisor.after_release(last)
@@ -91,7 +91,7 @@ class FaultHandling(_Base):
             tool = self.commanded or self.tcp
             if where is not None and tool is not None:
                 self._out.placement = Placement(held.block, where, held.picked_from, tool.yaw,
-                                                round(self._now * 1e9))
+                                                round(self._now * 1e9), held.squared)
         self.held = None
 
     def _on_grasp_fault(self, fault: GraspFault) -> None:

@@ -155,6 +155,9 @@ class ExecutorNode(Node):
         if status is None:
             return
         self.rearrange.on_planner_status(status)
+        if status.state == "waiting":
+            with self.lock:
+                self.core.on_planner_waiting()
         if status.state == "failed":
             with self.lock:
                 self.core.on_planner_failed(status.last_error)

@@ -57,17 +57,17 @@ def pick_place_steps(
         Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r),
         Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False),
         Grip(opening, cfg.gripper_settle_s, f"{tag}: fingers open"),
-        *_settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend"),
+        *settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend"),
         Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block),
         Move(pick, cfg.vertical_limits, f"{tag}: lift", blend=r),
         Move(place, cfg.travel_limits, f"{tag}: carry", converge=False),
-        *_settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower"),
+        *settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower"),
         Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release"),
         Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r),
     ]
 
 
-def _settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str) -> list[Step]:
+def settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str) -> list[Step]:
     """Straight down from ``above`` to height ``z``: fast, then the last approach_distance
     at approach_speed (contact happens slowly); the end is waited for."""
     return [
@@ -104,7 +104,7 @@ def push_steps(
              converge=False),
         # the fingers must be at the push opening before they go down beside the blocks
         Grip(geo.push_opening, cfg.gripper_settle_s, f"{tag}: fingers closed"),
-        *_settle_onto(contact.with_z(cfg.travel_height), cfg.push_height, cfg,
+        *settle_onto(contact.with_z(cfg.travel_height), cfg.push_height, cfg,
                       f"{tag}: descend behind"),
         Move(end, cfg.push_limits, f"{tag}: push"),
         Move(back, cfg.push_limits, f"{tag}: back off", converge=False),

@@ -109,10 +109,12 @@ class Outputs:
 
 @dataclass
 class Held:
-    """A block in the fingers: which (None: not known) and where it was picked up."""
+    """A block in the fingers: which (None: not known), where it was picked up, and whether
+    it was gripped along both of its axes in turn (centred on the TCP on both)."""
 
     block: int | None
     picked_from: Pose2D | None = None
+    squared: bool = False
 
 
 def transitions_markdown() -> str:

@@ -47,9 +47,11 @@ class Rise:
 class Grip:
     """Set the finger opening (m) and wait until the fingers are there or stopped on a block.
 
-    ``holds`` says which block is in the fingers afterwards. ``settle_s`` is how long to wait
-    when no finger measurement comes (a gripper that reports nothing). ``wait=False`` only
-    sends the command: the fingers move while the script goes on.
+    ``holds`` says which block is in the fingers afterwards; ``squares`` that they closed on
+    it along its other axis just before, at the same TCP (it then stands on the TCP on both
+    axes). ``settle_s`` is how long to wait when no finger measurement comes (a gripper that
+    reports nothing). ``wait=False`` only sends the command: the fingers move while the script
+    goes on.
     """
 
     opening: float
@@ -57,6 +59,7 @@ class Grip:
     label: str = ""
     holds: int | None = None
     wait: bool = True
+    squares: bool = False
 
 
 @dataclass(frozen=True, slots=True)

@@ -29,6 +29,11 @@ class PlannerConfig:
     finger_width: float = param(
         cell.FINGER_WIDTH,
         "finger pad size across the closing axis (2F-85 pad is ~22 mm wide)", unit="m")
+    finger_clearance: float = param(
+        0.001,
+        "room kept beside each finger pad's sides in the planner's footprints (a pad placed "
+        "flush with a neighbour grazes it when either stands a tenth of a millimetre off)",
+        unit="m")
     approach_clearance: float = param(
         cell.APPROACH_CLEARANCE,
         "gap between each finger and the block face as the open gripper descends: "
@@ -113,8 +118,9 @@ class PlannerConfig:
                      "budget_s", "a1", "a2"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
-        for name in ("approach_clearance", "push_contact_depth", "table_margin", "a3",
-                     "a_dist", "a_push_len", "goal_tolerance_xy", "goal_tolerance_yaw"):
+        for name in ("approach_clearance", "finger_clearance", "push_contact_depth",
+                     "table_margin", "a3", "a_dist", "a_push_len", "goal_tolerance_xy",
+                     "goal_tolerance_yaw"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"parameter '{name}' must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.eps <= 1.0 or not 0.0 <= self.eps_start <= 1.0 - self.eps:
@@ -139,8 +145,11 @@ class PlannerConfig:
                              "fingertips would miss the block's rear face")
 
     def gripper(self, block_size: float) -> GripperGeometry:
-        """The footprint geometry of this configuration for blocks of ``block_size``."""
-        return GripperGeometry(block_size, self.finger_thickness, self.finger_width,
+        """The footprint geometry the planner checks, for blocks of ``block_size``: the finger
+        pads ``finger_clearance`` wider on each side than ``finger_width``. A plan's params
+        keep the pads' own width (the executor and the validator use it)."""
+        return GripperGeometry(block_size, self.finger_thickness,
+                               self.finger_width + 2.0 * self.finger_clearance,
                                self.approach_clearance, self.push_opening,
                                self.push_contact_depth)
 

@@ -186,3 +186,60 @@ def test_the_camera_checks_two_regrips_with_noisy_yaws_correct_the_shift_at_leas
                                                    seen.theta + math.radians(yaw_noise)),), t))
     assert hand_eye.log and "corrected from 2 placements" in hand_eye.log[0], hand_eye.log
     assert out.blocks[0].pose.distance_to(true) < 3e-4
+
+
+def squared(true_pick: Pose2D, axis_yaw: float, d, w) -> Sample:
+    """The camera check's physics: the arm goes down where the camera says, grips along one
+    axis then the other at that TCP; the block then stands on the TCP, squared with it."""
+    picked = perceive(true_pick, d, w)
+    at = Pose2D(picked.x, picked.y, axis_yaw)
+    return Sample(picked, at, axis_yaw, perceive(at, d, w), squared=True)
+
+
+@pytest.mark.parametrize("d", [(0.0135, -0.0039), (-0.004, 0.009)])
+def test_one_squared_placement_pins_the_shift_where_it_stands(d):
+    sample = squared(Pose2D(0.80, 0.20, 0.3), 0.3, d, 0.0)
+    est = estimate([sample], CENTRE, with_turn=False)
+    assert est is not None
+    assert est.correction.dx == pytest.approx(d[0], abs=1e-9)
+    assert est.correction.dy == pytest.approx(d[1], abs=1e-9)
+    assert worth_correcting(est, [sample], CORNERS)
+    # read as a one-axis placement (the model before), the same numbers miss the shift
+    # across the closing axis entirely
+    plain = Sample(sample.picked, sample.placed, sample.axis_yaw, sample.seen)
+    assert estimate([plain], CENTRE, with_turn=False) is None
+
+
+def test_a_squared_placement_and_a_turned_camera_agree_with_later_placements():
+    d, w = (0.005, -0.004), math.radians(0.5)
+    first = squared(Pose2D(0.80, 0.20, 0.3), 0.3, d, w)
+    # the camera's error at the check's spot, whatever its turn
+    est = estimate([first], CENTRE, with_turn=False)
+    seen_fixed = est.correction.apply(first.seen)
+    assert seen_fixed.distance_to(first.placed) < 1e-9
+    later = [placement(Pose2D(0.6, -0.1, 0.2), Pose2D(0.7, 0.0, 0.0), 0.0, d, w),
+             placement(Pose2D(0.55, 0.25, 1.0), Pose2D(0.62, -0.25, 0.0), 1.2, d, w)]
+    est, dropped = robust_estimate([first, *later], CENTRE)
+    assert dropped == []
+    assert est.correction.w == pytest.approx(w, abs=math.radians(0.01))
+    assert est.correction.dx == pytest.approx(d[0], abs=1e-4)
+
+
+def test_a_block_set_down_again_before_it_was_seen_counts_once_where_it_was_last_left():
+    from msgs_py import BlockPose, BlockSet
+    from msgs_py.placement import Placement
+    from nodes.detector.handeye import HandEye
+
+    d = (0.0135, -0.0039)
+    hand_eye = HandEye(CORNERS, CENTRE)
+    true = Pose2D(0.80, 0.20, 0.3)
+    sample = squared(true, 0.3, d, 0.0)
+    # the check's first grip lets go (one axis) and grips again at once (both): one sample
+    hand_eye.on_placement(Placement(3, sample.placed, sample.picked, 0.3, 1))
+    hand_eye.on_placement(Placement(3, sample.placed, sample.picked, 0.3 + math.pi / 2, 2,
+                                    squared=True))
+    seen = sample.seen
+    out = hand_eye.correct(BlockSet((BlockPose(3, seen.x, seen.y, seen.theta),), 10**9))
+    assert len(hand_eye.samples) == 1 and hand_eye.samples[0].squared
+    assert hand_eye.log and "corrected from 1 placement of" in hand_eye.log[0], hand_eye.log
+    assert out.blocks[0].pose.distance_to(sample.placed) < 1e-6

@@ -66,6 +66,7 @@ class World:
         self.progress: list[tuple[str, int, int]] = []  # (state, action k, of n) as published
         self.gripper_commands: list[tuple[str, float]] = []  # (executor detail, opening)
         self.logs: list[str] = []
+        self.placements = []  # what the executor reports it set down
         self.max_speed = 0.0
         core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
 
@@ -85,6 +86,8 @@ class World:
         while t < max_t and not until():
             out = self.core.tick(t)
             self.logs += out.log
+            if out.placement is not None:
+                self.placements.append(out.placement)
             if out.setpoint is not None:
                 self.setpoints.append((t, self.core.status().state, out.setpoint))
                 if last is not None:
@@ -328,6 +331,23 @@ def test_without_a_plan_the_arm_parks_and_the_camera_is_triggered_periodically()
     assert len(triggers) >= 3
     gaps = [b - a for a, b in itertools.pairwise(triggers)]
     assert all(g == pytest.approx(CFG.idle_look_period_s, abs=DT) for g in gaps)
+
+
+def test_a_waiting_planner_gets_a_fresh_look_without_waiting_a_whole_idle_period():
+    core = ExecutorCore(CFG)
+    core.on_tcp(CFG.park)
+    triggers, t = [], 0.0
+    while t < 8.0:
+        if abs(t - 2.0) < DT / 2:  # a planner that started late says it waits for a detection
+            core.on_planner_waiting()
+        out = core.tick(t)
+        if out.trigger_camera:
+            triggers.append(t)
+        t += DT
+    # one look at once, one right after the planner's word, then the period again
+    assert triggers[0] == pytest.approx(0.0, abs=2 * DT)
+    assert triggers[1] == pytest.approx(2.0, abs=2 * DT)
+    assert triggers[2] == pytest.approx(2.0 + CFG.idle_look_period_s, abs=2 * DT)
 
 
 def test_a_block_found_in_the_fingers_at_start_up_is_set_down_then_the_plan_runs():
@@ -598,17 +618,22 @@ def test_a_stray_close_while_carrying_is_undone_and_the_carry_goes_on():
     assert any("still held; command restored" in line for line in world.logs)
 
 
-def test_the_first_run_re_grips_the_most_isolated_block_on_both_axes_then_runs_the_plan():
+def test_the_first_run_grips_the_most_isolated_block_on_both_axes_then_runs_the_plan():
     core = ExecutorCore(CHECKING)
     world = World(core, START)
     Gripper(world)
     core.on_plan(two_action_plan())
     world.run(lambda: core.state is State.DONE)
-    regrips = [a for a in core.plan.actions[:2]]
     # block 1 stands 0.25 m from the workspace's centre, block 2 0.22 m: block 2 is checked
-    assert [(a.block, a.grasp) for a in regrips] == [(2, 0), (2, 1)]
-    assert all(a.to == START[1].pose for a in regrips)
+    assert core.plan.actions[0] == PickPlace(2, START[1].pose, START[1].pose, 0)
     assert core.metrics["camera_check_regrips"] == 2
+    # the check's last word on block 2 is a squared placement where it stood, reported before
+    # any plan action's
+    check = [p for p in world.placements if p.squared]
+    assert len(check) == 1 and world.placements.index(check[0]) < 2
+    assert (check[0].block, check[0].pose) == (2, START[1].pose)
+    # one look at the start, one after the check (not one per grip), one after each action
+    assert len(world.trigger_poses) == 1 + 1 + 3
     assert core.metrics["actions_executed"] == 3 and world.replan_requests == 0
     # the status counts the plan's actions: 0 of 3 while checking, never negative
     assert ("running", 0, 3) in world.progress and ("running", 1, 3) in world.progress
@@ -631,7 +656,7 @@ def test_a_view_corrected_by_the_camera_check_makes_the_plan_replanned():
     Gripper(world)
     core.on_plan(two_action_plan())
     world.run(lambda: core.metrics.get("camera_check_regrips", 0) == 2)
-    # the detector corrected its calibration from the two re-grips: the other block is now
+    # the detector corrected its calibration from the check's grips: the other block is now
     # seen 5 mm from where the uncorrected plan had it
     p = world.blocks[1]
     world.blocks[1] = Pose2D(p.x + 0.005, p.y, p.theta)

@@ -185,11 +185,11 @@ def test_poses_and_block_poses_round_trip_bit_exact(pose, block_id):
               ic.block_pose_from_msg)
 
 
-@given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1))
-def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns):
+@given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1), st.booleans())
+def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns, squared):
     from msgs_py.placement import Placement
 
-    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns), ic.placement_to_msg,
+    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns, squared), ic.placement_to_msg,
               ic.placement_from_msg)
 
 

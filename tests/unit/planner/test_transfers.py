@@ -45,3 +45,18 @@ def test_validator_checks_that_every_unlabeled_slot_is_filled():
     assert validate_plan(Plan(actions=(move,), params=params, scene=scene)).ok
     report = validate_plan(Plan(actions=(), params=params, scene=scene))
     assert report.errors == ("end: goal slot 0 is empty",)
+
+
+def test_a_finger_pad_flush_with_a_neighbour_is_refused_unless_the_clearance_is_zero():
+    # the neighbour stands diagonally beside the place, its side 0.5 mm from where grasp 0's
+    # pad would stand: a tenth of a millimetre of placement error makes them touch
+    blocks = (BlockPose(0, 0.5, 0.1, 0.3), BlockPose(1, 0.8 + S + 0.003, -0.0369, 0.0))
+    scene = Scene(WS, S, blocks)
+    start, end = blocks[0].pose, Pose2D(0.8, 0.0, 0.0)  # not on a push line
+    near = {1: blocks[1].pose}
+    kept = PlanContext.for_scene(scene, PlannerConfig())
+    assert [t.grasp for t in direct_transfers(kept, near, start, end)] == [1]
+    flush = PlanContext.for_scene(scene, PlannerConfig(finger_clearance=0.0))
+    assert sorted(t.grasp for t in direct_transfers(flush, near, start, end)) == [0, 1]
+    # the plan's params keep the pads' own width (the executor and the validator use it)
+    assert PlannerConfig().to_params(S)["finger_width"] == PlannerConfig().finger_width
