@@ -288,10 +288,25 @@ class SimWorld:
                 over = math.hypot(tcp[0] - pos[0], tcp[1] - pos[1]) < 0.01
                 if over and MISS_Z[0] < tcp[2] < MISS_Z[1] and self.gripper_gap > rm.BLOCK_SIZE:
                     # aside across the closing axis, far enough for the fingers to miss it
-                    self.disturb(block, -closing[1] * MISS_DISTANCE, closing[0] * MISS_DISTANCE,
-                                 speed=MISS_SPEED)
+                    dx, dy = self._roomier_side(block, (-closing[1], closing[0]))
+                    self.disturb(block, dx * MISS_DISTANCE, dy * MISS_DISTANCE, speed=MISS_SPEED)
                     self._fault_fired(kind, block)
                     break
+
+    def _roomier_side(self, block: int, axis: tuple[float, float]) -> tuple[float, float]:
+        """``axis`` or its opposite: the way a knock MISS_DISTANCE long leaves ``block``
+        furthest from every other block. A miss is a block that is not where the fingers
+        come down, not a block rammed into its neighbour (a cube driven into another at
+        MISS_SPEED climbs it and tips over: a different fault)."""
+        here = self._block_position(block)[:2]
+        others = [self._block_position(b)[:2] for b in self.block_bodies if b != block]
+
+        def room(sign: float) -> float:
+            spot = here + sign * MISS_DISTANCE * np.asarray(axis)
+            return min((float(np.linalg.norm(spot - p)) for p in others), default=math.inf)
+
+        sign = 1.0 if room(1.0) >= room(-1.0) else -1.0
+        return sign * axis[0], sign * axis[1]
 
     def _fault_fired(self, kind: str, block: int) -> None:
         if self.armed == kind:

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from msgs_py import BlockPose, PickPlace, Pose2D
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
@@ -105,3 +109,26 @@ def test_armed_faults_strike_at_their_moment(world_factory):
     gap, _, obj = closed[0]
     assert gap < 0.005 and obj == 3  # at the requested position: nothing in the fingers
     assert world.block_poses()[0].pose.distance_to(START) > 0.03
+
+
+
+def test_a_missed_grasp_knocks_the_block_to_the_side_with_room_not_into_its_neighbour(
+        world_factory):
+    # grasp 0 closes along the block's x (yaw 0.2): the knock goes across it, along
+    # +-(-sin, cos); a neighbour stands 60 mm away on one side, then on the other
+    perp = (-math.sin(START.theta), math.cos(START.theta))
+    for side in (1.0, -1.0):
+        neighbour = (1, START.x + side * 0.060 * perp[0], START.y + side * 0.060 * perp[1],
+                     START.theta)
+        world = world_factory([(0, START.x, START.y, START.theta), neighbour])
+        world.step(24)
+        world.arm_fault("miss")
+        play(world, action_steps(PickPlace(0, START, GOAL, 0), START, GEO, CFG), CFG,
+             lambda w, label: None)
+        moved = {b.id: b.pose for b in world.block_poses()}[0]
+        along = (moved.x - START.x) * perp[0] + (moved.y - START.y) * perp[1]
+        assert -side * along > 0.03, (side, along)  # away from the neighbour
+        for block in (0, 1):  # both still stand on their bottom face
+            _, quat = world.block_pose_3d(block)
+            up = np.asarray(world.client.getMatrixFromQuaternion(quat)).reshape(3, 3)[2, 2]
+            assert up > 0.99
