@@ -78,6 +78,12 @@ class PlannerStatus:
         if self.state not in PLANNER_STATES:
             raise MessageError("state", self.state, f"expected one of {list(PLANNER_STATES)}")
 
+    @property
+    def wants_detection(self) -> bool:
+        """The planner waits for a (new) detection: none yet, or one that shows every block
+        (its reasons name the detection; a fresh camera frame is what it needs)."""
+        return self.state == "waiting" and "detection" in self.last_error
+
 
 @dataclass(frozen=True, slots=True)
 class GripperStatus:

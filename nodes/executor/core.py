@@ -116,7 +116,7 @@ class ExecutorCore(FaultHandling):
         self.ledger = TimeLedger()
         self._started_at: float | None = None
         self._last_idle_look: float | None = None
-        self._look_soon = False  # the planner waits: the next idle look need not wait a period
+        self._look_soon = False  # the planner waits for a detection: idle looks come often
         self._now = 0.0
         self._out = Outputs()
         self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
@@ -171,11 +171,13 @@ class ExecutorCore(FaultHandling):
             return
         self._adopt(plan)
 
-    def on_planner_waiting(self) -> None:
-        """The planner says it waits (for a detection, say). A planner that started after the
-        executor's last idle look would wait for the next one, up to ``idle_look_period_s``,
-        with the simulated clock running: while idle without a plan, look again soon."""
-        self._look_soon = True
+    def on_planner_waiting(self, for_detection: bool) -> None:
+        """The planner says whether it waits for a detection. One that started after the
+        executor's last idle look (or whose subscription had not met the detector's yet)
+        would wait for the next, up to ``idle_look_period_s``, with the simulated clock
+        running: while idle without a plan, and as long as it waits, look every
+        IDLE_LOOK_SOON_S."""
+        self._look_soon = for_detection
 
     def on_planner_failed(self, reason: str) -> None:
         """The planner found no plan for our replan request: what is left may be beyond its
@@ -278,7 +280,6 @@ class ExecutorCore(FaultHandling):
         due = min(period, IDLE_LOOK_SOON_S) if self._look_soon else period
         if self._last_idle_look is None or now - self._last_idle_look >= due:
             self._last_idle_look = now
-            self._look_soon = False
             self._want_trigger = True
 
     def _enter(self, state: State) -> None:

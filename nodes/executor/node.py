@@ -155,9 +155,8 @@ class ExecutorNode(Node):
         if status is None:
             return
         self.rearrange.on_planner_status(status)
-        if status.state == "waiting":
-            with self.lock:
-                self.core.on_planner_waiting()
+        with self.lock:
+            self.core.on_planner_waiting(status.wants_detection)
         if status.state == "failed":
             with self.lock:
                 self.core.on_planner_failed(status.last_error)

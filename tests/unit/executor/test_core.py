@@ -337,17 +337,21 @@ def test_a_waiting_planner_gets_a_fresh_look_without_waiting_a_whole_idle_period
     core = ExecutorCore(CFG)
     core.on_tcp(CFG.park)
     triggers, t = [], 0.0
-    while t < 8.0:
+    while t < 9.0:
         if abs(t - 2.0) < DT / 2:  # a planner that started late says it waits for a detection
-            core.on_planner_waiting()
+            core.on_planner_waiting(True)
+        if abs(t - 3.0) < DT / 2:  # ... and has one: it plans
+            core.on_planner_waiting(False)
         out = core.tick(t)
         if out.trigger_camera:
             triggers.append(t)
         t += DT
-    # one look at once, one right after the planner's word, then the period again
+    # one look at once, looks every IDLE_LOOK_SOON_S while the planner waits, then the period
+    soon = [k for k in triggers if 1.9 < k < 3.1]
     assert triggers[0] == pytest.approx(0.0, abs=2 * DT)
-    assert triggers[1] == pytest.approx(2.0, abs=2 * DT)
-    assert triggers[2] == pytest.approx(2.0 + CFG.idle_look_period_s, abs=2 * DT)
+    assert soon == pytest.approx([2.0, 2.5], abs=2 * DT)
+    assert triggers[-1] == pytest.approx(soon[-1] + CFG.idle_look_period_s, abs=2 * DT)
+    assert len(triggers) == 1 + len(soon) + 1
 
 
 def test_a_block_found_in_the_fingers_at_start_up_is_set_down_then_the_plan_runs():
