@@ -13,7 +13,12 @@ those whose blocks arrived before (extra blocks only get in the way more), so:
 * a block already on its goal that the plan moves costs 2 (away and back), and until it is
   back its slot is free: that is how an enclosed slot opens (unlabeled: 1, the slot's new
   arrival; the leaving may be another slot's arrival);
-* a block the goal does not name that stands on a slot must leave it: 1 each.
+* a block the goal does not name that stands on a slot must leave it: 1 each;
+* a block to move that can be neither grasped nor pushed where it starts (every grasp's
+  fingers and every push's fingertips land on other blocks, ``first_movers``) moves only
+  after every block on one of those options' way has moved: if each option has a block on
+  its goal in the way, one of them at least is moved off it and back (2: not all can be
+  kept; **walls**).
 
 Minimising the sum over every arrival order and every choice of blocks moved off their goal
 is a shortest path over the subsets of slots (``Relaxation``): exact below ``DP_MAX`` slots.
@@ -37,11 +42,11 @@ from functools import cached_property
 import numpy as np
 
 from msgs_py import Pose2D
-from msgs_py.footprint import block_corners
+from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.assembly import Assembly
 from nodes.planner.context import at_pose
 from nodes.planner.geometry import Obstacles, mask_to_int, words
-from nodes.planner.transfer import push_line
+from nodes.planner.transfer import grasp_checks, push_checks, push_line
 
 #: Largest slot count for which the exact relaxation (2^n subsets) is solved.
 DP_MAX = 12
@@ -62,16 +67,25 @@ class Relaxation:
     """Arrival costs per slot (bit c) given the filled slots, and the shortest path over
     subsets. ``base[c]``: 1 for a slot to fill, 2 for a filled one whose block moves;
     ``exempt[c]``: its block may arrive by one push (it starts on a push line into it);
-    ``clears[c]``: slots its block stands on (it must leave before they fill)."""
+    ``clears[c]``: slots its block stands on (it must leave before they fill); ``walls``: per
+    walled-in block, the filled slots in the way of each of its options (one option's must
+    all be emptied, so a kept set may not meet every one of them; ``first_movers``)."""
 
     def __init__(self, assembly: Assembly, todo: int, exempt: list[bool],
-                 clears: list[int], moved_cost: float) -> None:
+                 clears: list[int], moved_cost: float,
+                 walls: tuple[tuple[int, ...], ...] = ()) -> None:
         self.asm = assembly
         self.n = len(assembly.ids)
         self.todo = todo  # slots to fill; the others are filled at the start
         self.exempt = exempt
         self.clears = clears
         self.moved_cost = moved_cost  # a filled slot emptied and filled again
+        self.walls = walls
+
+    def keepable(self, kept: int) -> bool:
+        """Whether the blocks of ``kept`` may all stay on their goal: every walled-in block
+        keeps one option whose filled slots are all emptied."""
+        return all(any(m & kept == 0 for m in wall) for wall in self.walls)
 
     def placeable(self, c: int, filled: int) -> bool:
         return any(m & filled == 0 for m in self.asm.set_down[c])
@@ -107,7 +121,8 @@ class Relaxation:
         best = (INF, 0)
         sub = kept_all
         while True:
-            best = min(best, (self.to_go[sub], -sub))
+            if self.keepable(sub):
+                best = min(best, (self.to_go[sub], -sub))
             if sub == 0:
                 break
             sub = (sub - 1) & kept_all
@@ -217,7 +232,8 @@ def _solve(relax: Relaxation, misplaced: int, extra_fixed: int, ids: list[int]
             return LowerBound(misplaced + extra, misplaced, extra, True, keep, relax)
     tail = relax.tail()
     cycles = _disjoint_cycles(relax.clears, relax.todo)
-    extra = max(int(tail) if tail < INF else 0, cycles) + extra_fixed
+    walled = 2 if relax.walls else 0  # one placed block at least away and back
+    extra = max(int(tail) if tail < INF else 0, cycles, walled) + extra_fixed
     return LowerBound(misplaced + extra, misplaced, extra, False)
 
 
@@ -237,8 +253,42 @@ def labeled_bound(ctx, start: Mapping[int, Pose2D], goals: Mapping[int, Pose2D],
                                                             slots))]
     free = [start[b] for b in sorted(set(start) - set(goals))]
     on_slots = sum(1 for m in _overlaps(ctx, free, slots) if m)
-    relax = Relaxation(asm, todo, exempt, clears, moved_cost=2.0)
+    walls = tuple(tuple(m & ~todo for m in options)
+                  for k, options in enumerate(first_movers(ctx, start, ids))
+                  if todo >> k & 1 and options and all(m & ~todo for m in options))
+    relax = Relaxation(asm, todo, exempt, clears, 2.0, walls)
     return _solve(relax, todo.bit_count(), on_slots, ids)
+
+
+def first_movers(ctx, start: Mapping[int, Pose2D], ids: list[int]) -> list[list[int]]:
+    """Per block of ``ids``, for each way of moving it from its start (two grasps, four
+    pushes), the mask (bits: positions in ``ids``) of the blocks of ``ids`` on that way: all
+    of one option's must move before the block can. The fingers' footprints do not depend on
+    where the block goes, nor, for the shortest push, does its sweep. Options that the table
+    edge or the arm's reach rule out whatever moves are left out; a block with an option
+    free of ``ids`` gets an empty list (it is not walled in)."""
+    everyone = sorted(start)
+    where = {b: k for k, b in enumerate(ids)}
+    bit_to_pos = {bit: where[b] for b, bit in ctx.bit_of.items() if b in where}
+    out = []
+    for b in ids:
+        p = start[b]
+        obstacles = ctx.obstacles(start, exclude=(b,), movable=everyone)
+        pose = np.array([[p.x, p.y, p.theta]])
+        grasps = grasp_checks(ctx, obstacles, pose)
+        ok, push_hit = push_checks(ctx, obstacles, np.repeat(pose, 4, axis=0),
+                                   face_normals(p.theta)[0], np.full(4, 1e-6))
+        hits = [h for h, usable in zip(grasps.fingers_hit[0], grasps.fingers_ok[0],
+                                       strict=True) if usable]
+        hits += [h for h, usable in zip(push_hit, ok, strict=True) if usable]
+        masks = [_positions(mask_to_int(h), bit_to_pos) for h in hits]
+        out.append(masks if masks and all(masks) else [])
+    return out
+
+
+def _positions(mask: int, bit_to_pos: Mapping[int, int]) -> int:
+    """An obstacle mask (bits: ``ctx.bit_of``) as a mask over positions in the goal ids."""
+    return sum(1 << pos for bit, pos in bit_to_pos.items() if mask >> bit & 1)
 
 
 def unlabeled_bound(ctx, blocks: list[Pose2D], slots: list[Pose2D], filled: list[bool],

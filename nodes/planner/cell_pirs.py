@@ -7,7 +7,9 @@
   2 for pick-and-place + push) minus one for a block standing on another pending slot
   (placing it now saves clearing it), plus what the rest of the layout then costs: the
   certified bound's least relaxed completion where it was solved (up to 12 slots), else the
-  pushes the greedy assembly order still needs (up to 30 slots); ties in that order. A block
+  pushes the greedy assembly order still needs (up to 30 slots); ties in that order, or, with
+  ``jitter`` > 0 (the anytime improvement's restarts), each estimate raised by a random
+  amount below ``jitter`` so that near ties go either way. A block
   whose placing would wall in another goal slot (``Assembly.feasible``) is left out. With
   ``assembly_order`` off: by id, every block (the paper). Candidates are yielded lazily.
 * ``clearing_poses``: the block's own goal when it is out of the way and filling it next
@@ -50,8 +52,9 @@ class CellPirs:
 
     def __init__(self, ctx: PlanContext, goals: dict[int, Pose2D], yaw_exact: bool,
                  rng: np.random.Generator, assembly: Assembly | None = None,
-                 relaxation: Relaxation | None = None) -> None:
+                 relaxation: Relaxation | None = None, jitter: float = 0.0) -> None:
         self.ctx = ctx
+        self.jitter = jitter
         self.goals = goals
         self.yaw_exact = yaw_exact
         self.rng = rng
@@ -97,9 +100,11 @@ class CellPirs:
         def estimate(b: int) -> tuple[float, int]:
             now = 0 if self.at_goal(b, state) else (1 if asm.placeable(b, filled) else 2)
             saved = 1 if b in in_way else 0
-            return now - saved + self.ahead(filled | asm.bit[b]), self.rank[b]
-        for b in sorted(blocks, key=estimate):  # feasibility tested as they are asked for
-            if estimate(b)[0] < INF and asm.feasible(filled | asm.bit[b]):
+            noise = self.rng.uniform(0.0, self.jitter) if self.jitter > 0.0 else 0.0
+            return now - saved + self.ahead(filled | asm.bit[b]) + noise, self.rank[b]
+        keys = {b: estimate(b) for b in sorted(blocks)}
+        for b in sorted(keys, key=keys.__getitem__):  # feasibility tested as asked for
+            if keys[b][0] < INF and asm.feasible(filled | asm.bit[b]):
                 yield b
 
     def ahead(self, filled: int) -> float:

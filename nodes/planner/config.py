@@ -71,7 +71,10 @@ class PlannerConfig:
         0.18, "longest push sampled on a push line", unit="m")
     # --- search --------------------------------------------------------------------------------
     budget_s: float = param(30.0, "planning time budget", unit="s")
-    seed: int = param(0, "seed of the planner's random generator (same seed, same plan)")
+    seed: int = param(0, "seed of the planner's random generator (same seed, same first plan; "
+                      "the anytime restarts that may shorten it are bounded by time, so on a "
+                      "loaded machine fewer run: improve_max_s 0 makes the plan depend on the "
+                      "seed alone)")
     max_depth: int = param(8, "bound on nested CLEAR / re-plan recursion per block")
     clear_attempts: int = param(4, "clearing poses tried for one blocking block")
     clear_outside_path: bool = param(
@@ -90,6 +93,17 @@ class PlannerConfig:
         True, "option: try blocks in an assembly order of the goal layout (paper: by id)")
     shortcut: bool = param(
         True, "option: merge two moves of the same block into one where the plan allows it")
+    improve_factor: float = param(
+        4.0, "anytime improvement: after the first plan, pIRS restarts (other samples, "
+        "near ties in the order broken at random) for improve_factor x the first solve's time "
+        "and the shortest validated plan is kept (pIRS is greedy per block; a restart is "
+        "often an action or two shorter)")
+    improve_min_s: float = param(
+        1.0, "least time given to the anytime improvement (when the first solve was quick)",
+        unit="s")
+    improve_max_s: float = param(
+        2.5, "most time given to the anytime improvement (the executor replans in its loop, "
+        "so planning time counts); 0 switches it off", unit="s")
     goal_tolerance_xy: float = param(
         cell.PLACED_TOLERANCE_XY,
         "a block this close to its goal counts as placed (no action)", unit="m")
@@ -120,7 +134,7 @@ class PlannerConfig:
                 raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
         for name in ("approach_clearance", "finger_clearance", "push_contact_depth",
                      "table_margin", "a3", "a_dist", "a_push_len", "goal_tolerance_xy",
-                     "goal_tolerance_yaw"):
+                     "goal_tolerance_yaw", "improve_factor", "improve_min_s", "improve_max_s"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"parameter '{name}' must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.eps <= 1.0 or not 0.0 <= self.eps_start <= 1.0 - self.eps:

@@ -43,14 +43,16 @@ def failed(budget: Budget, bound: int, error: str, block: int | None = None,
 
 def finish_plan(scene: Scene, config: PlannerConfig, actions: list[Action], planner: str,
                 budget: Budget, bound: int, metrics: dict[str, float],
-                plan_id: str | None = None, extra_params: dict[str, Any] | None = None
-                ) -> PlanOutcome:
-    """The validated plan of ``actions`` (unneeded ones dropped), or an internal error."""
+                plan_id: str | None = None, extra_params: dict[str, Any] | None = None,
+                pruned: bool = False) -> PlanOutcome:
+    """The validated plan of ``actions`` (unneeded ones dropped unless the caller already
+    did, ``pruned``: the pass replays the plan once per action), or an internal error."""
     params = config.to_params(scene.block_size)
     params.update(extra_params or {})
-    before = len(actions)
-    actions = necessary_actions(scene, params, actions)
-    metrics = {**metrics, "unneeded_dropped": float(before - len(actions))}
+    if not pruned:
+        before = len(actions)
+        actions = necessary_actions(scene, params, actions)
+        metrics = {**metrics, "unneeded_dropped": float(before - len(actions))}
     plan = Plan(actions=tuple(actions), planner=planner, params=params, seed=config.seed,
                 planning_time_s=budget.elapsed(), cost=CostModel.of(config).plan(actions),
                 plan_id=plan_id or uuid.uuid4().hex[:12], scene=scene)

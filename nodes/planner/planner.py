@@ -1,27 +1,36 @@
 """pIRS for labeled goals: a scene in, a validated plan out.
 
 ``plan_scene`` builds the work cell's space (``cell_pirs.CellPirs``), runs pIRS (``pirs``)
-within the budget, merges two moves of a block where the plan allows (``shortcut``), drops
-what the plan does without and replays the result through the independent validator
-(``outcome.finish_plan``). It returns a plan with every parameter, or a failure naming the
-block and the reason, and the certified lower bound either way (``bound``); it raises
-``ValueError``/``MessageError`` only for input it cannot accept.
+within the budget, merges two moves of a block where the plan allows (``shortcut``) and
+drops what the plan does without (``necessity``); then restarts pIRS within the improvement
+budget and keeps the shortest validated plan (``improve``), and replays the result through
+the independent validator (``outcome.finish_plan``). It returns a plan with every
+parameter, or a failure naming the block and the reason, and the certified lower bound
+either way (``bound``); it raises ``ValueError``/``MessageError`` only for input it cannot
+accept.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
-from msgs_py import MessageError, Scene
+from msgs_py import MessageError, Plan, Pose2D, Scene
+from msgs_py.actions import Action
 from nodes.planner.assembly import Assembly
 from nodes.planner.bound import LowerBound, labeled_bound
 from nodes.planner.budget import Budget
 from nodes.planner.cell_pirs import CellPirs
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext, at_pose
+from nodes.planner.improve import ImproveSettings, improve
+from nodes.planner.necessity import necessary_actions
 from nodes.planner.outcome import PlanOutcome, failed, finish_plan
 from nodes.planner.pirs import Pirs, PirsOptions, PlanningFailure
 from nodes.planner.shortcut import shortcut
+from nodes.planner.validator import validate_plan
 
 PLANNER_NAME = "pirs"
 
@@ -67,23 +76,73 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
         return failed(budget, bound.value, f"block {walled[0]}: the goal layout walls in the "
                       f"slots of blocks {walled}: in no order can they be set down or pushed "
                       "in", walled[0], metrics)
-    space = CellPirs(ctx, goals, yaw_exact, np.random.default_rng(config.seed), assembly,
-                     bound.relaxation)
-    search = Pirs(space, frozenset(goals), frozenset(start) - frozenset(goals), budget,
-                  PirsOptions(config.probe, config.max_depth))
-    keep = _kept(space, assembly, bound, start)
+    attempt = _Attempt(scene, config, ctx, assembly, bound, start)
     try:
-        actions, _ = search.run(start, keep)
+        actions = attempt.solve(np.random.default_rng(config.seed), 0.0, budget, metrics)
     except PlanningFailure as failure:
-        metrics.update(search.stats.as_metrics())
         return failed(budget, bound.value, str(failure), failure.block, metrics)
-    metrics.update(search.stats.as_metrics())
-    if config.shortcut:
-        before = len(actions)
-        actions = shortcut(ctx, start, actions)
-        metrics["shortcut_saved"] = float(before - len(actions))
-    return finish_plan(scene, config, actions, PLANNER_NAME, budget, bound.value, metrics,
-                       plan_id)
+    before = len(actions)
+    actions = necessary_actions(scene, attempt.params, actions)
+    metrics["unneeded_dropped"] = float(before - len(actions))
+    first_s = budget.elapsed()
+    settings = ImproveSettings(config.improve_factor, config.improve_min_s, config.improve_max_s)
+    better = improve(actions, attempt.restart, attempt.valid,
+                     budget.capped(settings.seconds(first_s)), bound.value, first_s)
+    metrics.update(better.metrics(len(actions)))
+    metrics["first_solve_s"] = first_s
+    return finish_plan(scene, config, better.best, PLANNER_NAME, budget, bound.value, metrics,
+                       plan_id, pruned=True)
+
+
+@dataclass
+class _Attempt:
+    """One pIRS run on a scene: the first with the configured seed, restarts with their own
+    generator stream and order jitter (``improve``)."""
+
+    scene: Scene
+    config: PlannerConfig
+    ctx: PlanContext
+    assembly: Assembly
+    bound: LowerBound
+    start: dict[int, Pose2D]
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return self.config.to_params(self.scene.block_size)
+
+    def solve(self, rng: np.random.Generator, jitter: float, budget: Budget,
+              metrics: dict[str, float]) -> list[Action]:
+        """pIRS and the shortcut pass; raises PlanningFailure (search figures in
+        ``metrics`` either way)."""
+        goals = self.scene.goal_assignment()
+        space = CellPirs(self.ctx, goals, self.scene.goal.yaw_exact, rng, self.assembly,
+                         self.bound.relaxation, jitter)
+        search = Pirs(space, frozenset(goals), frozenset(self.start) - frozenset(goals),
+                      budget, PirsOptions(self.config.probe, self.config.max_depth))
+        keep = _kept(space, self.assembly, self.bound, self.start)
+        try:
+            actions, _ = search.run(self.start, keep)
+        finally:
+            metrics.update(search.stats.as_metrics())
+        if self.config.shortcut:
+            before = len(actions)
+            actions = shortcut(self.ctx, self.start, actions)
+            metrics["shortcut_saved"] = float(before - len(actions))
+        return actions
+
+    def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
+        """Restart ``k``: pruned actions, or None if it found no plan."""
+        rng = np.random.default_rng([self.config.seed, k])
+        try:
+            actions = self.solve(rng, jitter, budget, {})
+        except PlanningFailure:
+            return None
+        return necessary_actions(self.scene, self.params, actions)
+
+    def valid(self, actions: list[Action]) -> bool:
+        return validate_plan(Plan(actions=tuple(actions), planner=PLANNER_NAME,
+                                  params=self.params, seed=self.config.seed,
+                                  scene=self.scene)).ok
 
 
 def _kept(space: CellPirs, assembly: Assembly, bound: LowerBound, start) -> frozenset[int]:

@@ -6,7 +6,7 @@ import pytest
 
 from msgs_py import BlockPose, Goal, GoalSlot, Plan, Scene, Workspace
 from nodes.planner.bench import exact_actions
-from nodes.planner.bound import labeled_bound, unlabeled_bound
+from nodes.planner.bound import first_movers, labeled_bound, unlabeled_bound
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
 from nodes.planner.exact import ExactLimit, exact_plan
@@ -56,6 +56,26 @@ def test_an_enclosed_centre_of_a_plus_takes_four():
     goals = {0: (*C, 0.0), **{b: (*p, 0.0) for b, p in arms.items()}}
     blocks = {0: (0.50, 0.15, 0.3), **{b: (*p, 0.0) for b, p in arms.items()}}
     assert solve(labeled(blocks, goals)) == (4, 4)
+
+
+def test_a_block_walled_in_by_placed_blocks_needs_one_of_them_away_and_back():
+    # block 0 stands on the centre of a plus whose arms are on their goals; its own goal is
+    # outside: every grasp and push of it lands on an arm, so an arm leaves and comes back
+    arms = {1: (C[0] - P, 0.0), 2: (C[0] + P, 0.0), 3: (C[0], -P), 4: (C[0], P)}
+    goals = {0: (0.50, 0.15, 0.0), **{b: (*p, 0.0) for b, p in arms.items()}}
+    blocks = {0: (*C, 0.0), **{b: (*p, 0.0) for b, p in arms.items()}}
+    scene = labeled(blocks, goals)
+    ctx = PlanContext.for_scene(scene, CONFIG)
+    walls = first_movers(ctx, {b.id: b.pose for b in scene.blocks}, [0, 1, 2, 3, 4])[0]
+    assert len(walls) == 6 and all(walls)  # two grasps, four pushes, none free
+    best, bound = solve(scene)
+    assert bound == 3 <= best  # was 1: only the block to move
+    # the same plus with its centre block free to go (the arms a block apart): no wall
+    spread = {b: (C[0] + 2 * (p[0] - C[0]), 2 * p[1], 0.0) for b, p in arms.items()}
+    free = labeled({0: (*C, 0.0), **spread}, {0: goals[0], **spread})
+    ctx = PlanContext.for_scene(free, CONFIG)
+    assert first_movers(ctx, {b.id: b.pose for b in free.blocks}, [0, 1, 2, 3, 4])[0] == []
+    assert solve(free) == (1, 1)
 
 
 def test_a_block_already_placed_needs_nothing():
