@@ -18,6 +18,7 @@ import subprocess
 import sys
 import threading
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -145,7 +146,12 @@ class GoalSender:
     """Sends a goal layout to ``/rearrange`` once the cell sees its blocks, follows its
     feedback into the monitor, and sends it again when its server went silent (an executor
     killed and restarted: the new one does not know the goal). ``outcome`` is set when the
-    goal ends: a result outcome, or ``rejected``."""
+    goal ends: a result outcome, or ``rejected``.
+
+    Each goal carries an id made here, so a goal whose answer was lost on the way (DDS can
+    drop a service response sent before the server has met the client's reader; the
+    executor then runs a goal its client never heard accepted) is still recognised by its
+    feedback and followed: sending it again would only be refused, the first one running."""
 
     def __init__(self, monitor: RunMonitor, layout: Scene) -> None:
         from msgs_py.interface_codecs import rearrange_goal_to_msg
@@ -158,13 +164,17 @@ class GoalSender:
         self._heard_at = 0.0
         self._result: Any = None
         self._rejected = 0
+        self._sent_ids: set[bytes] = set()  # every goal id sent, answered or not
+        self._running_id: Any = None  # a sent goal heard from in feedback before its answer
         self.outcome = ""
         self.resent = 0
 
     def step(self, now: float) -> None:
         if self.outcome:
             return
-        if self._sending is not None:
+        if self.handle is None and self._running_id is not None:
+            self._follow_unanswered(now)
+        elif self._sending is not None:
             self._answer(now)
         elif self.handle is None:
             ready = self.monitor.rearrange.server_is_ready() and self.monitor.detection is not None
@@ -177,9 +187,23 @@ class GoalSender:
             self._send(now)
 
     def _send(self, now: float) -> None:
+        from unique_identifier_msgs.msg import UUID
+
+        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
+        self._sent_ids.add(bytes(goal_id.uuid))
         self._sending = self.monitor.rearrange.send_goal_async(
-            self.goal, feedback_callback=self._on_feedback)
+            self.goal, feedback_callback=self._on_feedback, goal_uuid=goal_id)
         self._sent_at = now
+
+    def _follow_unanswered(self, now: float) -> None:
+        """Our goal runs (its feedback says so) though its answer never came: follow it."""
+        from densepack_interfaces.action import Rearrange
+        from rclpy.action.client import ClientGoalHandle
+
+        accepted = Rearrange.Impl.SendGoalService.Response(accepted=True)
+        handle = ClientGoalHandle(self.monitor.rearrange, self._running_id, accepted)
+        self.handle, self._result = handle, handle.get_result_async()
+        self._sending, self._running_id, self._heard_at = None, None, now
 
     def _answer(self, now: float) -> None:
         if not self._sending.done():
@@ -202,6 +226,8 @@ class GoalSender:
         from msgs_py.interface_codecs import rearrange_feedback_from_msg
 
         self._heard_at = time.monotonic()
+        if self.handle is None and bytes(message.goal_id.uuid) in self._sent_ids:
+            self._running_id = message.goal_id
         feedback = rearrange_feedback_from_msg(message.feedback)
         with self.monitor.lock:
             self.monitor.feedback = feedback
