@@ -116,7 +116,7 @@ class ExecutorCore(FaultHandling):
         self.ledger = TimeLedger()
         self._started_at: float | None = None
         self._last_idle_look: float | None = None
-        self._look_soon = False  # the planner waits for a detection: idle looks come often
+        self._planner_wants_frame = False  # the planner waits for a detection (to plan from)
         self._now = 0.0
         self._out = Outputs()
         self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
@@ -176,8 +176,9 @@ class ExecutorCore(FaultHandling):
         executor's last idle look (or whose subscription had not met the detector's yet)
         would wait for the next, up to ``idle_look_period_s``, with the simulated clock
         running: while idle without a plan, and as long as it waits, look every
-        IDLE_LOOK_SOON_S."""
-        self._look_soon = for_detection
+        IDLE_LOOK_SOON_S. One restarted while the executor waits for a correcting plan has
+        nothing to plan from either: the executor looks again (``_wait_for_plan``)."""
+        self._planner_wants_frame = for_detection
 
     def on_planner_failed(self, reason: str) -> None:
         """The planner found no plan for our replan request: what is left may be beyond its
@@ -277,7 +278,7 @@ class ExecutorCore(FaultHandling):
         if self.commanded is None or self.commanded.distance_to(self.cfg.park) > 1e-6:
             self._start_runner(park_steps(self.cfg), After.IDLE_PARKED)
             return
-        due = min(period, IDLE_LOOK_SOON_S) if self._look_soon else period
+        due = min(period, IDLE_LOOK_SOON_S) if self._planner_wants_frame else period
         if self._last_idle_look is None or now - self._last_idle_look >= due:
             self._last_idle_look = now
             self._want_trigger = True
@@ -565,6 +566,12 @@ class ExecutorCore(FaultHandling):
         if self._pending_plan is not None:
             pending, self._pending_plan = self._pending_plan, None
             self._adopt(pending)
+            return
+        if self._planner_wants_frame and self.runner is None:
+            # a planner restarted since the last frame has none to plan a correction from
+            self._planner_wants_frame = False
+            self._log("the planner waits for a detection; looking again")
+            self._observe(Purpose.RESUME, near=True)
             return
         if self._replan_sent_at is not None and now - self._replan_sent_at > \
                 self.cfg.replan_timeout_s:

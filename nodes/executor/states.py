@@ -58,6 +58,7 @@ TRANSITIONS: dict[State, dict[State, str]] = {
         State.STOPPING: "no way to recover, or stop requested",
     },
     State.REPLANNING: {
+        State.OBSERVING: "the planner has no detection to plan from (restarted): look again",
         State.RUNNING: "a plan that starts from the perceived world",
         State.REPLANNING: "that plan does not fit, or none came",
         State.DONE: "no correction possible, residual within the acceptance tolerance",

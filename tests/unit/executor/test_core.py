@@ -717,3 +717,23 @@ def test_a_block_knocked_off_the_workspace_is_brought_back_with_wide_open_finger
     wide = 0.0508 + 2 * CFG.pick_clearance
     assert openings and max(openings) == pytest.approx(wide)  # room for a camera 1 cm off
     assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+
+
+def test_a_planner_restarted_during_a_replan_is_shown_a_fresh_frame():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def nudge(actions_done):
+        if actions_done == 1:
+            p = world.blocks[2]
+            world.blocks[2] = Pose2D(p.x + 0.01, p.y, p.theta)
+
+    world.disturb = nudge
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.REPLANNING)
+    observations = core.metrics["observations"]
+    # the planner restarted meanwhile: no detection to plan from, it says so
+    core.on_planner_waiting(True)
+    world.run(lambda: core.metrics["observations"] > observations, max_t=10.0)
+    assert any("planner waits for a detection; looking again" in line for line in world.logs)
+    assert world.trigger_poses[-1].x == pytest.approx(WS.x_min - CFG.look_offset)  # look pose
