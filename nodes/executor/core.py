@@ -670,6 +670,9 @@ class ExecutorCore(FaultHandling):
         if fault is not None and self.state is not State.STOPPING:
             self._on_grasp_fault(fault)
             return
+        if tick.blocked and self.state is State.RUNNING:
+            self._on_blocked_descent(tick.error)
+            return
         if tick.error:
             if self.state is State.STOPPING:
                 self.runner = None
@@ -682,6 +685,18 @@ class ExecutorCore(FaultHandling):
             return
         after, self.runner = self._after, None
         self._runner_done(after)
+
+    def _on_blocked_descent(self, why: str) -> None:
+        """The tool stopped above where it went down: something stands there (a block knocked
+        under it). Back up and look from the look pose, with whatever the fingers hold: a held
+        block is then set down at a free spot, and the run goes on from what the camera sees."""
+        plan = self.plan
+        self.metrics["blocked_descents"] = self.metrics.get("blocked_descents", 0.0) + 1.0
+        self._log(f"{why}: something is in the way below; backing up and looking again")
+        if self.held is None and plan is not None and self.index < len(plan.actions) \
+                and self._picked_from is not None:
+            self.expected[plan.actions[self.index].block] = self._picked_from  # not moved
+        self._observe(Purpose.RECOVERY, near=True)
 
     def _runner_done(self, after: After) -> None:
         if after is After.LOOK:

@@ -48,7 +48,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
         State.STOPPING: "a block is gone, or stop requested",
     },
     State.RUNNING: {
-        State.OBSERVING: "action done: look",
+        State.OBSERVING: "action done, or a descent stopped above its end (something below): "
+                         "look",
         State.RECOVERING: "a grasp fault: stop, let go, look",
         State.STOPPING: "an error, or stop requested",
     },

@@ -31,6 +31,7 @@ class Move:
     label: str = ""
     converge: bool = True
     blend: float = 0.0  #: m: start the next move this far before the end (no convergence)
+    onto: bool = False  #: straight down onto the table: stopped above, something is below
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +85,7 @@ class Tick:
     done: bool
     error: str = ""
     label: str = ""
+    blocked: bool = False  #: the error is a descent stopped above its end: something below
 
 
 #: With no fresh measurement at all, give up after this many convergence timeouts.
@@ -191,7 +193,8 @@ class StepRunner:
             if tick.gripper is not None:
                 gripper = tick.gripper
             if tick.error or not tick.done:
-                return Tick(tick.setpoint, gripper, tick.done, tick.error, tick.label)
+                return Tick(tick.setpoint, gripper, tick.done, tick.error, tick.label,
+                            tick.blocked)
             self.finished_steps.append(step)
             self._advance(step, now)
         setpoint = self._with_blend(self.commanded, now)
@@ -279,7 +282,9 @@ class StepRunner:
                    else f"{measured.distance_to(move.end) * 1e3:.1f} mm: at "
                         f"({measured.x:.4f}, {measured.y:.4f}, {measured.z:.4f})")
             end = move.end
-            return Tick(end, None, False, label=step.label,
+            blocked = (isinstance(step, Move) and step.onto and measured is not None
+                       and measured.z > end.z + self.tol)
+            return Tick(end, None, False, label=step.label, blocked=blocked,
                         error=f"step '{step.label}': TCP did not reach ({end.x:.4f}, "
                               f"{end.y:.4f}, {end.z:.4f}) within {self.timeout:.1f} s "
                               f"(off by {off})")

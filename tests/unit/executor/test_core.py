@@ -67,6 +67,7 @@ class World:
         self.gripper_commands: list[tuple[str, float]] = []  # (executor detail, opening)
         self.logs: list[str] = []
         self.placements = []  # what the executor reports it set down
+        self.floor: Callable[[ToolPose], float] = lambda tool: 0.0  # the TCP stops on it
         self.max_speed = 0.0
         core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
 
@@ -93,7 +94,9 @@ class World:
                 if last is not None:
                     self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
                 last = out.setpoint
-                self.core.on_tcp(out.setpoint)
+                floor = self.floor(out.setpoint)
+                self.core.on_tcp(out.setpoint if out.setpoint.z >= floor
+                                 else out.setpoint.with_z(floor))
             holding = self._held_block()
             if held is not None and holding is None and self.gripper is None:  # set down
                 self.blocks[held] = self.core.expected[held]
@@ -737,3 +740,24 @@ def test_a_planner_restarted_during_a_replan_is_shown_a_fresh_frame():
     world.run(lambda: core.metrics["observations"] > observations, max_t=10.0)
     assert any("planner waits for a detection; looking again" in line for line in world.logs)
     assert world.trigger_poses[-1].x == pytest.approx(WS.x_min - CFG.look_offset)  # look pose
+
+
+def test_a_place_stopped_above_its_spot_backs_up_looks_and_sets_the_block_down_elsewhere():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("carry"))
+    # block 2 is knocked onto block 1's goal while block 1 is carried: the tool stops 4 cm up
+    world.blocks[2] = GOAL[1]
+    world.floor = lambda tool: 0.04 if math.hypot(tool.x - GOAL[1].x, tool.y - GOAL[1].y) < 0.03 \
+        else 0.0
+    world.run(lambda: world.replan_requests > 0 or core.state in (State.FAILED, State.STOPPED))
+    assert core.state is State.REPLANNING, world.logs[-5:]
+    assert any("something is in the way below" in line for line in world.logs)
+    assert core.held is None and core.metrics["blocked_descents"] == 1
+    # set down where nothing stands, inside the workspace; the replan names the knocked block
+    p = world.blocks[1]
+    assert math.hypot(p.x - GOAL[1].x, p.y - GOAL[1].y) > 0.05
+    assert WS.contains_square(p, 0.0508)
+    assert "block 2" in core.detail
