@@ -73,7 +73,7 @@ def settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str) -> l
     return [
         Move(above.with_z(z + cfg.approach_distance), cfg.vertical_limits, label,
              converge=False),
-        Move(above.with_z(z), cfg.approach_limits, f"{label} (last cm)", onto=True),
+        Move(above.with_z(z), cfg.approach_limits, f"{label} (last cm)", onto=above.z),
     ]
 
 

@@ -31,7 +31,9 @@ class Move:
     label: str = ""
     converge: bool = True
     blend: float = 0.0  #: m: start the next move this far before the end (no convergence)
-    onto: bool = False  #: straight down onto the table: stopped above, something is below
+    #: the last part of a descent from this height (m) onto the table or a block: stopped
+    #: above its end after coming down, the tool stands on something
+    onto: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -282,8 +284,9 @@ class StepRunner:
                    else f"{measured.distance_to(move.end) * 1e3:.1f} mm: at "
                         f"({measured.x:.4f}, {measured.y:.4f}, {measured.z:.4f})")
             end = move.end
-            blocked = (isinstance(step, Move) and step.onto and measured is not None
-                       and measured.z > end.z + self.tol)
+            blocked = (isinstance(step, Move) and step.onto is not None
+                       and measured is not None
+                       and _stopped_on_the_way_down(step.onto, end, measured, self.tol))
             return Tick(end, None, False, label=step.label, blocked=blocked,
                         error=f"step '{step.label}': TCP did not reach ({end.x:.4f}, "
                               f"{end.y:.4f}, {end.z:.4f}) within {self.timeout:.1f} s "
@@ -336,6 +339,20 @@ class StepRunner:
         self.index += 1
         self._t0 = None
         self._move = None
+
+
+#: A descent counts as stopped by something below when the TCP came down at least this far
+#: (m) over its end's x, y (within BLOCKED_XY_M): an arm that does not move at all is not.
+BLOCKED_DROP_M = 0.005
+BLOCKED_XY_M = 0.01
+
+
+def _stopped_on_the_way_down(top: float, end: ToolPose, measured: ToolPose, tol: float
+                             ) -> bool:
+    """The TCP went down from height ``top`` over ``end`` and stopped above it (it stands on
+    something)."""
+    over = math.hypot(measured.x - end.x, measured.y - end.y) <= BLOCKED_XY_M
+    return over and end.z + tol < measured.z < top - BLOCKED_DROP_M
 
 
 def _braking_move(start: ToolPose, step: Brake) -> LinearMove:
