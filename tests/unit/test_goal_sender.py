@@ -9,6 +9,10 @@ from rclpy.task import Future
 from msgs_py import Goal, GoalSlot, Scene, Workspace
 from nodes.tools.cell_run import GoalSender
 
+#: A goal layout of one slot (what it holds does not matter to the client).
+LAYOUT = Scene(Workspace(0.4, 1.0, -0.3, 0.3), 0.0508, (),
+               Goal(slots=(GoalSlot(0.7, 0.0, 0.0, 0),)))
+
 
 class FakeActionClient:
     """Accepts goals but never answers them (the response lost); records result requests."""
@@ -50,9 +54,7 @@ def feedback_for(goal_id):
 
 def test_a_goal_whose_answer_was_lost_is_followed_by_its_feedback_not_sent_again():
     monitor = FakeMonitor()
-    layout = Scene(Workspace(0.4, 1.0, -0.3, 0.3), 0.0508, (),
-                   Goal(slots=(GoalSlot(0.7, 0.0, 0.0, 0),)))
-    sender = GoalSender(monitor, layout)
+    sender = GoalSender(monitor, LAYOUT)
     sender.step(0.0)
     assert len(monitor.rearrange.sent) == 1
     goal_id, on_feedback = monitor.rearrange.sent[0]
@@ -70,9 +72,7 @@ def test_feedback_of_a_goal_not_ours_is_not_adopted():
     from unique_identifier_msgs.msg import UUID
 
     monitor = FakeMonitor()
-    layout = Scene(Workspace(0.4, 1.0, -0.3, 0.3), 0.0508, (),
-                   Goal(slots=(GoalSlot(0.7, 0.0, 0.0, 0),)))
-    sender = GoalSender(monitor, layout)
+    sender = GoalSender(monitor, LAYOUT)
     sender.step(0.0)
     _, on_feedback = monitor.rearrange.sent[0]
     on_feedback(feedback_for(UUID(uuid=[7] * 16)))
