@@ -103,6 +103,8 @@ class ExecutorCore(FaultHandling):
         self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
         self._probes = 0  # the plan's first actions that are the camera check's re-grips
         self._separations = 0  # overlapping blocks set apart in a row
+        self._setting_apart: int | None = None  # the block a set-apart is going down for
+        self._apart_blocked: set[int] = set()  # ... whose descent stopped on its partner
         self._bring_ins, self._bring_ins_of = 0, -1  # tries to bring block _of in, in a row
         self._replan_sent_at: float | None = None
         self._rejected_plans: set[str] = set()
@@ -673,6 +675,9 @@ class ExecutorCore(FaultHandling):
         if tick.blocked and self.state is State.RUNNING:
             self._on_blocked_descent(tick.error)
             return
+        if tick.blocked and self.state is State.RECOVERING and self._setting_apart is not None:
+            self._on_blocked_set_apart(tick.error)
+            return
         if tick.error:
             if self.state is State.STOPPING:
                 self.runner = None
@@ -698,6 +703,16 @@ class ExecutorCore(FaultHandling):
             self.expected[plan.actions[self.index].block] = self._picked_from  # not moved
         self._observe(Purpose.RECOVERY, near=True)
 
+    def _on_blocked_set_apart(self, why: str) -> None:
+        """Setting overlapping blocks apart, the tool stopped on the way down to one of them:
+        the other lies on it. Back up, look, and set the other one apart first."""
+        assert self._setting_apart is not None
+        self._apart_blocked.add(self._setting_apart)
+        self._log(f"{why}: block {self._setting_apart} lies under another; backing up to set "
+                  "the other apart first")
+        self._setting_apart = None
+        self._observe(Purpose.RECOVERY, near=True)
+
     def _runner_done(self, after: After) -> None:
         if after is After.LOOK:
             self._trigger()
@@ -709,6 +724,7 @@ class ExecutorCore(FaultHandling):
                 self._take_detection(pending)
         elif after is After.RECOVERED:
             self.held = None
+            self._setting_apart = None
             if self._stop_requested:
                 self._stop_safely("stop requested", failed=False)
             else:

@@ -179,6 +179,7 @@ class FaultHandling(_Base):
         pairs = overlapping_ids(self.perceived, self.geo.block_size)
         if not pairs:
             self._separations = 0
+            self._apart_blocked = set()
             return False
         if self._separations >= MAX_SEPARATIONS:
             self._fail(f"blocks {list(pairs[0])} still overlap after {self._separations} tries "
@@ -187,6 +188,8 @@ class FaultHandling(_Base):
         acting = plan.actions[self.index].block if self.index < len(plan.actions) else None
         a, b = next((pair for pair in pairs if acting in pair), pairs[0])
         block, partner = (b, a) if b == acting else (a, b)
+        if block in self._apart_blocked and partner not in self._apart_blocked:
+            block, partner = partner, block  # the tool stopped on the partner: it is on top
         rest = {k: p for k, p in self.perceived.items() if k != partner}
         grasp = free_grasp(rest, block, self.geo, self._table(plan))
         if grasp is None:
@@ -202,6 +205,7 @@ class FaultHandling(_Base):
                 "grasped" if grasp is None else "set down anywhere free"))
             return True
         self._separations += 1
+        self._setting_apart = block
         self._move_aside(block, spot, grasp, rest, self._table(plan),
                          f"blocks {block} and {partner} overlap: setting block {block} apart")
         return True

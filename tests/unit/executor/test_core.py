@@ -761,3 +761,26 @@ def test_a_place_stopped_above_its_spot_backs_up_looks_and_sets_the_block_down_e
     assert math.hypot(p.x - GOAL[1].x, p.y - GOAL[1].y) > 0.05
     assert WS.contains_square(p, 0.0508)
     assert "block 2" in core.detail
+
+
+def test_setting_apart_a_block_that_lies_under_the_other_tries_the_other_first():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    under = Pose2D(GOAL[1].x + 0.041, GOAL[1].y, 0.0)
+
+    def knock(actions_done):
+        if actions_done == 1:  # block 2 shoved under block 1's edge: they overlap by 1 cm
+            world.blocks[2] = under
+
+    def floor(tool):  # going down to block 2, the fingers stop on block 1 lying on it
+        on_it = world.blocks[1].distance_to(GOAL[1]) < 1e-6
+        return 0.06 if on_it and math.hypot(tool.x - under.x, tool.y - under.y) < 0.01 else 0.0
+
+    world.disturb = knock
+    world.floor = floor
+    core.on_plan(two_action_plan())
+    world.run(lambda: any("setting block 1 apart" in line for line in world.logs)
+              or core.state in (State.FAILED, State.STOPPED))
+    assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
+    assert any("block 2 lies under another" in line for line in world.logs)
+    assert core.state is State.RECOVERING, world.logs[-4:]
