@@ -10,6 +10,7 @@ parks with a block in its fingers.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from msgs_py import Plan, Pose2D, Workspace
@@ -174,7 +175,8 @@ class FaultHandling(_Base):
     def _separate_overlapping_blocks(self, plan: Plan) -> bool:
         """Two perceived blocks overlap (one knocked against or onto another, leaning on it):
         no plan starts from that, so one of them is picked up and set down at the nearest free
-        spot, the block of the action in hand first. False when no two blocks overlap."""
+        spot: the one that moved furthest from where it was expected first (the knocked one,
+        which lies on the other if either does). False when no two blocks overlap."""
         assert plan.scene is not None
         pairs = overlapping_ids(self.perceived, self.geo.block_size)
         if not pairs:
@@ -185,9 +187,8 @@ class FaultHandling(_Base):
             self._fail(f"blocks {list(pairs[0])} still overlap after {self._separations} tries "
                        "to set one of them apart")
             return True
-        acting = plan.actions[self.index].block if self.index < len(plan.actions) else None
-        a, b = next((pair for pair in pairs if acting in pair), pairs[0])
-        block, partner = (b, a) if b == acting else (a, b)
+        a, b = max(pairs, key=lambda pair: max(self._moved(pair[0]), self._moved(pair[1])))
+        block, partner = (a, b) if self._moved(a) >= self._moved(b) else (b, a)
         if block in self._apart_blocked and partner not in self._apart_blocked:
             block, partner = partner, block  # the tool stopped on the partner: it is on top
         rest = {k: p for k, p in self.perceived.items() if k != partner}
@@ -209,6 +210,12 @@ class FaultHandling(_Base):
         self._move_aside(block, spot, grasp, rest, self._table(plan),
                          f"blocks {block} and {partner} overlap: setting block {block} apart")
         return True
+
+    def _moved(self, block: int) -> float:
+        """How far (m) ``block`` is seen from where it was expected (inf: not expected
+        anywhere, as a block let go of after a grasp fault)."""
+        was, now = self.expected.get(block), self.perceived[block]
+        return math.inf if was is None else math.hypot(now.x - was.x, now.y - was.y)
 
     def _bring_in_outside_block(self, plan: Plan) -> bool:
         """A perceived block outside the workspace (dropped, knocked): pick it up and set it
