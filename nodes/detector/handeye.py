@@ -198,6 +198,8 @@ def worth_correcting(est: Estimate, samples: Sequence[Sample],
     MIN_ERROR: apply it."""
     if axis_spread(samples) < MIN_AXIS_SPREAD:
         return False
+    if est.rms_residual > OUTLIER_M:  # the placements disagree: no correction explains them
+        return False
     c = est.correction
     biggest = max(c.error_at(x, y) for x, y in corners)
     if biggest < MIN_ERROR:

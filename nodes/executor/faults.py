@@ -85,9 +85,12 @@ class FaultHandling(_Base):
 
     def _released(self) -> None:
         """The fingers let go of a held block: it stands where the arm set it down (reported,
-        so perception can be checked against the arm)."""
+        so perception can be checked against the arm). Only a plan action's (or the camera
+        check's) release is reported: a recovery picks blocks knocked, tilted or leaning on
+        another, whose perceived pick pose says nothing about the camera."""
         held = self.held
-        if held is not None and held.block is not None and held.picked_from is not None:
+        if (held is not None and held.block is not None and held.picked_from is not None
+                and self.state is State.RUNNING):
             where = self.expected.get(held.block)
             tool = self.commanded or self.tcp
             if where is not None and tool is not None:

@@ -243,3 +243,15 @@ def test_a_block_set_down_again_before_it_was_seen_counts_once_where_it_was_last
     assert len(hand_eye.samples) == 1 and hand_eye.samples[0].squared
     assert hand_eye.log and "corrected from 1 placement of" in hand_eye.log[0], hand_eye.log
     assert out.blocks[0].pose.distance_to(sample.placed) < 1e-6
+
+
+def test_placements_that_no_correction_explains_are_not_applied():
+    d = (0.0135, -0.0039)
+    first = squared(Pose2D(0.80, 0.20, 0.3), 0.3, d, 0.0)
+    # a block picked while lying tilted on another: its placement is 2 cm from the model
+    wild = placement(Pose2D(0.6, -0.1, 0.2), Pose2D(0.7, 0.0, 0.0), 0.0, d, 0.0)
+    wild = Sample(wild.picked, wild.placed, wild.axis_yaw,
+                  Pose2D(wild.seen.x + 0.02, wild.seen.y - 0.01, wild.seen.theta))
+    est, dropped = robust_estimate([first, wild], CENTRE)
+    assert dropped == [] and est.rms_residual > 0.0015  # two samples: not thinned
+    assert not worth_correcting(est, [first, wild], CORNERS)
