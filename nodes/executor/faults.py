@@ -191,15 +191,14 @@ class FaultHandling(_Base):
                        "to set one of them apart")
             return True
         a, b = max(pairs, key=lambda pair: max(self._moved(pair[0]), self._moved(pair[1])))
-        block, partner = (a, b) if self._moved(a) >= self._moved(b) else (b, a)
-        if block in self._apart_blocked and partner not in self._apart_blocked:
-            block, partner = partner, block  # the tool stopped on the partner: it is on top
-        rest = {k: p for k, p in self.perceived.items() if k != partner}
-        grasp = free_grasp(rest, block, self.geo, self._table(plan))
-        if grasp is None:
-            block, partner = partner, block
+        first, second = (a, b) if self._moved(a) >= self._moved(b) else (b, a)
+        if first in self._apart_blocked and second not in self._apart_blocked:
+            first, second = second, first  # the tool stopped on the other: it is on top
+        for block, partner in ((first, second), (second, first)):  # the other if no grasp
             rest = {k: p for k, p in self.perceived.items() if k != partner}
             grasp = free_grasp(rest, block, self.geo, self._table(plan))
+            if grasp is not None:
+                break
         at = self.perceived[block]
         spot = free_spot({k: p for k, p in self.perceived.items() if k != block},
                          plan.scene.workspace, self.geo, at.theta, (at.x, at.y),
@@ -217,8 +216,8 @@ class FaultHandling(_Base):
     def _moved(self, block: int) -> float:
         """How far (m) ``block`` is seen from where it was expected (inf: not expected
         anywhere, as a block let go of after a grasp fault)."""
-        was, now = self.expected.get(block), self.perceived[block]
-        return math.inf if was is None else math.hypot(now.x - was.x, now.y - was.y)
+        was = self.expected.get(block)
+        return math.inf if was is None else self.perceived[block].distance_to(was)
 
     def _bring_in_outside_block(self, plan: Plan) -> bool:
         """A perceived block outside the workspace (dropped, knocked): pick it up and set it
