@@ -100,6 +100,7 @@ class ExecutorCore(FaultHandling):
         self._last_run: float | None = None
         self._replans = 0
         self._grasp_tries = 0
+        self._release_stalls = 0  # openings that stalled since the last finished action
         self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
         self._probes = 0  # the plan's first actions that are the camera check's re-grips
         self._separations = 0  # overlapping blocks set apart in a row
@@ -672,6 +673,8 @@ class ExecutorCore(FaultHandling):
         if fault is not None and self.state is not State.STOPPING:
             self._on_grasp_fault(fault)
             return
+        if tick.stalled and self._on_release_stall(tick.error):
+            return
         if tick.blocked and self.state is State.RUNNING:
             self._on_blocked_descent(tick.error)
             return
@@ -746,6 +749,7 @@ class ExecutorCore(FaultHandling):
             kind = f"{plan.actions[self.index].type}_executed"  # pick_place_executed, ...
             self.metrics[kind] = self.metrics.get(kind, 0.0) + 1.0
         self._grasp_tries = 0
+        self._release_stalls = 0
         self.held = None
         looked_from_here = self._looks_after(self.index) and plan.scene is not None
         self.index += 1

@@ -44,6 +44,8 @@ BRING_IN_INSET = 0.015
 MAX_BRING_INS = 3
 #: Tries to set overlapping blocks apart before giving up (each is a pick-and-place and a look).
 MAX_SEPARATIONS = 3
+#: Openings that may stall (each let go again) before an action finishes; one more stops the run.
+MAX_RELEASE_STALLS = 2
 #: Deceleration when a fault stops the arm mid-move (m/s^2).
 BRAKE_DECEL = 5.0
 
@@ -131,6 +133,18 @@ class FaultHandling(_Base):
         self.runner.brake(self._now - self._script_lag, BRAKE_DECEL,
                           let_go_steps(self.geo, self.cfg, "recover"))
         self._after = After.RECOVERED
+
+    def _on_release_stall(self, why: str) -> bool:
+        """The fingers stopped opening short of the opening (held by something: a block
+        caught on a pad, say). Like a block not released: open again, rise, look, and go on
+        from what the camera sees. False (the run stops) after MAX_RELEASE_STALLS in one
+        action, or while stopping."""
+        if (self.state not in (State.RUNNING, State.RECOVERING)
+                or self._release_stalls >= MAX_RELEASE_STALLS):
+            return False
+        self._release_stalls += 1
+        self._on_grasp_fault(GraspFault(FaultKind.NOT_RELEASED, why, holding_something=True))
+        return True
 
     # --- recovery -------------------------------------------------------------------------------
     def _recover_held_block(self) -> None:

@@ -17,6 +17,7 @@ without a blend ends only when the measured TCP has converged on its end point.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -63,6 +64,9 @@ class Grip:
     holds: int | None = None
     wait: bool = True
     squares: bool = False
+    #: An opening that stops short of ``opening`` counts as done (a let-go: whatever the
+    #: fingers still hold is found by the look that follows).
+    stall_ok: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +92,7 @@ class Tick:
     error: str = ""
     label: str = ""
     blocked: bool = False  #: the error is a descent stopped above its end: something below
+    stalled: bool = False  #: the error is an opening that stopped short: not let go
 
 
 #: With no fresh measurement at all, give up after this many convergence timeouts.
@@ -106,6 +111,8 @@ GRIP_NO_MOTION_S = 0.3
 #: stop an opening, and one that pauses on a block's face (a pad dragging) must not let the
 #: arm rise and tip the block it has just set down.
 GRIP_OPEN_SLACK = 0.002
+#: An opening still for this long short of it has stalled: something holds the fingers (s).
+GRIP_STALL_S = 0.4
 #: A gripper that neither reaches its opening nor stops within this long has failed (s).
 GRIP_TIMEOUT_S = 3.0
 
@@ -195,8 +202,7 @@ class StepRunner:
             if tick.gripper is not None:
                 gripper = tick.gripper
             if tick.error or not tick.done:
-                return Tick(tick.setpoint, gripper, tick.done, tick.error, tick.label,
-                            tick.blocked)
+                return dataclasses.replace(tick, gripper=gripper)
             self.finished_steps.append(step)
             self._advance(step, now)
         setpoint = self._with_blend(self.commanded, now)
@@ -321,6 +327,13 @@ class StepRunner:
             done = t >= step.settle_s
         else:
             done = t >= GRIP_MIN_S and _gripper_done(self._gaps, step.opening, t)
+        if not done and measured and t > GRIP_MIN_S and _opening_stalled(self._gaps, step.opening):
+            if step.stall_ok:
+                return Tick(self.commanded, gripper, True, label=step.label)
+            return Tick(self.commanded, gripper, False, label=step.label, stalled=True,
+                        error=f"step '{step.label}': the fingers stopped opening at "
+                              f"{measured[-1][1] * 1e3:.1f} mm (asked for "
+                              f"{step.opening * 1e3:.1f} mm)")
         if not done and measured and t > GRIP_TIMEOUT_S:
             return Tick(self.commanded, gripper, False, label=step.label,
                         error=f"step '{step.label}': the gripper neither reached "
@@ -387,6 +400,18 @@ class BrakingMove(LinearMove):
             return self.end
         a, b = self.start, self.end
         return a.plus(u * (b.x - a.x), u * (b.y - a.y), u * (b.z - a.z), 0.0)
+
+
+def _opening_stalled(gaps: list[tuple[float, float]], opening: float) -> bool:
+    """The fingers were told to open, moved, and have stood still for GRIP_STALL_S short of
+    the opening (a pause on a block's face is shorter)."""
+    t_last, g_last = gaps[-1]
+    if not opening > gaps[0][1] + GRIP_MOVED_M or g_last >= opening - GRIP_OPEN_SLACK:
+        return False
+    if t_last - gaps[0][0] < GRIP_STALL_S:
+        return False
+    window = [g for t, g in gaps if t >= t_last - GRIP_STALL_S]
+    return max(window) - min(window) <= GRIP_STILL_SPEED * GRIP_STALL_S
 
 
 def _gripper_done(gaps: list[tuple[float, float]], opening: float, elapsed: float) -> bool:

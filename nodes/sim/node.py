@@ -69,6 +69,11 @@ SERVICE_TIMEOUT_S = 60.0
 MAX_IDLE_WAIT_S = 0.005
 
 
+#: gOBJ code of fingers that stopped on something while opening: logged with what they touch.
+STOPPED_OPENING = GRIPPER_OBJECT_STATES.index("stopped_opening")
+STALL_LOG_S = 0.2
+
+
 class SimNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("sim", **kwargs)
@@ -83,6 +88,7 @@ class SimNode(Node):
         self._wake = threading.Event()  # a command came: the loop may step again
         self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_lead_s)
         self._blackout_until_ns = 0
+        self._stopped_opening_since: float | None = None  # sim s; -1: logged
         self._make_interfaces()
         self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
         self._thread.start()
@@ -294,8 +300,25 @@ class SimNode(Node):
         position, quat = self.world.tcp_pose()
         self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat))
         gap, requested, code = self.world.gripper_status()
+        self._log_stalled_opening(code == STOPPED_OPENING, gap, requested)
         self.pub_gripper.publish(ic.gripper_status_to_msg(GripperStatusRecord(
             gap, requested, GRIPPER_OBJECT_STATES[code], self.world.time_ns)))
+
+    def _log_stalled_opening(self, stopped: bool, gap: float, requested: float) -> None:
+        """Fingers that stay stopped while opening for STALL_LOG_S: log once what they touch
+        (the executor recovers; the log says why it had to)."""
+        now = self.world.time_s
+        if not stopped:
+            self._stopped_opening_since = None
+            return
+        since = self._stopped_opening_since
+        if since is None:
+            self._stopped_opening_since = now
+        elif since >= 0.0 and now - since >= STALL_LOG_S:
+            self._stopped_opening_since = -1.0  # logged
+            self.get_logger().warning(
+                f"fingers stopped opening at {gap * 1e3:.1f} mm (asked for "
+                f"{requested * 1e3:.1f} mm): {self.world.finger_contacts()}")
 
     def _publish_truth(self) -> None:
         truth = BlockSet(tuple(self.world.block_poses()), self.world.time_ns, "world",

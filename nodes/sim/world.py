@@ -324,6 +324,19 @@ class SimWorld:
         held = [b for b, links in touching.items() if len(links) == 2]
         return held[0] if held else None
 
+    def finger_contacts(self) -> str:
+        """What each finger touches, with the normal force: says what holds fingers that
+        stopped opening (logged when they do)."""
+        names = {self.robot: "robot"}
+        names.update({body: f"block {b}" for body, b in self.body_to_block.items()})
+        parts = []
+        for pt in self.client.getContactPoints(bodyA=self.robot):
+            if pt[3] in self.finger_links:
+                what = names.get(pt[2], f"body {pt[2]}")
+                parts.append(f"finger link {pt[3]} - {what} (link {pt[4]}) {pt[9]:.1f} N "
+                             f"at ({pt[5][0]:.4f}, {pt[5][1]:.4f}, {pt[5][2]:.4f})")
+        return "; ".join(parts) or "no finger contact"
+
     def slippery_pads(self, factor: float, seconds: float) -> None:
         """The pads lose grip (a greasy or dusty block): their friction times ``factor`` for
         ``seconds``. Low enough, the held block slides or falls out of the fingers."""

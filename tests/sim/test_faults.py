@@ -47,6 +47,15 @@ def test_without_a_fault_the_block_is_held_through_the_carry_and_placed(world_fa
     assert end.pose.distance_to(GOAL) < 0.001 and carry
 
 
+def test_finger_contacts_name_the_held_block_and_an_empty_gripper_says_so(world_factory):
+    """The sim logs this when fingers stop opening: it must say what they touch."""
+    said = []
+    world, _, _ = carry_with(world_factory, lambda w: said.append(w.finger_contacts()))
+    for link in world.finger_joints:  # both fingers touch it
+        assert f"finger link {link} - block 0 (link -1) " in said[0]
+    assert world.finger_contacts() == "no finger contact"  # released, risen
+
+
 def test_a_drop_shows_in_the_gripper_report_within_a_tenth_of_a_second(world_factory):
     world, reports, t0 = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.4))
     empty = next(t for t, gap, _, obj in reports if obj != 2 or gap < 0.0508 - 0.002)

@@ -19,7 +19,7 @@ from nodes.executor.primitives import (
     park_steps,
     push_steps,
 )
-from nodes.executor.steps import Grip, Move, StepRunner
+from nodes.executor.steps import GRIP_STALL_S, GRIP_TIMEOUT_S, Grip, Move, StepRunner
 
 CFG = ExecutorConfig()
 GEO = GripperGeometry.from_params({})
@@ -260,6 +260,37 @@ def test_a_release_that_pauses_on_the_block_is_not_done_until_the_fingers_are_op
 
     done, error = run_grip(opening, 0.0688)
     assert not error and done >= 0.2 + (0.0688 - 0.0508 - 0.009) / 0.15 - 0.03
+
+
+def stalls_at(gap):
+    """50.9 -> 68.8 mm at 150 mm/s from t = 0.04, held fast at ``gap`` on the way."""
+    return lambda t: min(gap, 0.0509 + 0.15 * max(0.0, t - 0.04))
+
+
+def test_an_opening_that_stalls_short_is_reported_as_stalled_long_before_the_timeout():
+    """Seen in the cell: released, the fingers opened 2 mm and stopped; the run waited 3 s
+    and stopped. A stalled opening is now its own verdict, for the executor to recover."""
+    runner = StepRunner([Grip(0.0688, 0.3, "block 4: release")], HOME, 0.002, 1.0)
+    t, tick = 0.0, None
+    while t < GRIP_TIMEOUT_S:
+        tick = runner.update(t, HOME, gaps=[(t, stalls_at(0.0529)(t))])
+        if tick.done or tick.error:
+            break
+        t += 0.02
+    assert tick is not None and tick.stalled and not tick.done
+    assert t <= 0.04 + 0.02 / 0.15 + GRIP_STALL_S + 0.05
+    assert "stopped opening at 52.9 mm (asked for 68.8 mm)" in tick.error
+
+
+def test_a_let_go_accepts_an_opening_that_stalls():
+    runner = StepRunner([Grip(0.0688, 0.3, "recover: open", stall_ok=True)], HOME, 0.002, 1.0)
+    t = 0.0
+    while t < 1.0:
+        tick = runner.update(t, HOME, gaps=[(t, stalls_at(0.0529)(t))])
+        if tick.done or tick.error:
+            break
+        t += 0.02
+    assert tick.done and not tick.error
 
 
 def test_a_gripper_that_neither_arrives_nor_stops_is_an_error():
