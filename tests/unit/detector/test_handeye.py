@@ -255,3 +255,63 @@ def test_placements_that_no_correction_explains_are_not_applied():
     est, dropped = robust_estimate([first, wild], CENTRE)
     assert dropped == [] and est.rms_residual > 0.0015  # two samples: not thinned
     assert not worth_correcting(est, [first, wild], CORNERS)
+
+
+def run_placements(d, w, goals, seed, yaw_noise_deg=0.3, position_noise=0.0002):
+    """The camera check then a pick-and-place onto each of ``goals``, through ``HandEye``: the
+    arm grips where the corrected perception says, the fingers centre the block along their
+    axis only, and it lands with a little noise. Returns the HandEye and the true poses."""
+    from msgs_py import BlockPose, BlockSet
+    from msgs_py.placement import Placement
+    from nodes.detector.handeye import HandEye
+
+    rng = np.random.default_rng(seed)
+    hand_eye = HandEye(CORNERS, CENTRE)
+    truth = {0: Pose2D(0.85, 0.25, 0.3)}
+    truth.update({k + 1: Pose2D(rng.uniform(0.5, 0.9), rng.uniform(-0.3, 0.3), rng.uniform(-1, 1))
+                  for k in range(len(goals))})
+    t = 0
+
+    def look():
+        nonlocal t
+        t += 20 * 10**9  # a pick-and-place later
+        raw = BlockSet(tuple(BlockPose(b, *_xyt(perceive(p, d, w))) for b, p in truth.items()), t)
+        return {b.id: b.pose for b in hand_eye.correct(raw).blocks}
+
+    seen = look()
+    check = seen[0]  # the camera check: gripped on both axes where it is seen
+    hand_eye.on_placement(Placement(0, check, check, 0.3, t + 1, squared=True))
+    truth[0] = Pose2D(check.x, check.y, check.theta)
+    for k, goal in enumerate(goals):
+        block = k + 1
+        seen = look()
+        gripped, axis = seen[block], float(rng.integers(4)) * math.pi / 2 + goal.theta
+        a = np.array([math.cos(axis), math.sin(axis)])
+        off = np.array([truth[block].x - gripped.x, truth[block].y - gripped.y])
+        across = off - (off @ a) * a + rng.normal(0.0, position_noise, 2)
+        hand_eye.on_placement(Placement(block, goal, gripped, axis, t + 1))
+        truth[block] = Pose2D(goal.x + across[0], goal.y + across[1],
+                              goal.theta + math.radians(rng.normal(0.0, yaw_noise_deg)))
+    return hand_eye, truth, look()
+
+
+GRID = [Pose2D(0.65 + 0.0528 * (k % 3), -0.05 + 0.0528 * (k // 3), 0.0) for k in range(9)]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_placements_that_agree_with_the_correction_in_use_leave_the_view_where_it_is(seed):
+    """Every move of the view shifts every block the executor checks (a replan when it moves
+    them past the placed tolerance): a correction that still explains every placement within
+    their noise is kept. Before, each placement moved it again, by turns the camera did not
+    have (0.1-0.2 deg, seen in the cell's logs)."""
+    hand_eye, truth, seen = run_placements((0.0135, -0.0039), 0.0, GRID, seed)
+    corrections = [line for line in hand_eye.log if line.startswith("perception corrected")]
+    assert len(corrections) <= 2, corrections
+    assert all(seen[b].distance_to(p) < 6e-4 for b, p in truth.items())
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_turn_the_check_could_not_see_is_learnt_from_the_placements(seed):
+    hand_eye, truth, seen = run_placements((0.005, -0.004), math.radians(0.5), GRID, seed)
+    assert abs(math.degrees(hand_eye.correction.w) - 0.5) < 0.15
+    assert all(seen[b].distance_to(p) < 6e-4 for b, p in truth.items())
