@@ -101,6 +101,7 @@ class ExecutorCore(FaultHandling):
         self._replans = 0
         self._grasp_tries = 0
         self._release_stalls = 0  # openings that stalled since the last finished action
+        self._stall_z = 0.0  # the tool height where the first of them began (m)
         self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
         self._probes = 0  # the plan's first actions that are the camera check's re-grips
         self._separations = 0  # overlapping blocks set apart in a row

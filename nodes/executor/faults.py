@@ -27,7 +27,7 @@ from nodes.executor.recovery import (
     set_down_steps,
 )
 from nodes.executor.states import After, Held, Purpose, State
-from nodes.executor.steps import Grip, Rise, Step, StepRunner
+from nodes.executor.steps import Grip, Move, Rise, Step, StepRunner
 from nodes.executor.supervision import Expect, FaultKind, GraspFault
 
 if TYPE_CHECKING:
@@ -44,8 +44,10 @@ BRING_IN_INSET = 0.015
 MAX_BRING_INS = 3
 #: Tries to set overlapping blocks apart before giving up (each is a pick-and-place and a look).
 MAX_SEPARATIONS = 3
-#: Openings that may stall (each let go again) before an action finishes; one more stops the run.
+#: Openings that may stall before an action finishes, each tried again after lifting the tool
+#: UNLOAD_LIFT_M (a block pressed on the table loads the pads); one more stops the run there.
 MAX_RELEASE_STALLS = 2
+UNLOAD_LIFT_M = 0.003
 #: Deceleration when a fault stops the arm mid-move (m/s^2).
 BRAKE_DECEL = 5.0
 
@@ -135,16 +137,46 @@ class FaultHandling(_Base):
         self._after = After.RECOVERED
 
     def _on_release_stall(self, why: str) -> bool:
-        """The fingers stopped opening short of the opening (held by something: a block
-        caught on a pad, say). Like a block not released: open again, rise, look, and go on
-        from what the camera sees. False (the run stops) after MAX_RELEASE_STALLS in one
-        action, or while stopping."""
-        if (self.state not in (State.RUNNING, State.RECOVERING)
-                or self._release_stalls >= MAX_RELEASE_STALLS):
+        """The fingers stopped opening short of the opening, still pressing on the block (seen
+        in the cell: 38 N on one corner of each pad, whose lower edge stood 2 mm below where it
+        stands at a normal release). Lift the tool UNLOAD_LIFT_M and open again, then go on
+        with the script. Rising further with a block
+        the fingers will not let go would carry it off (it once ended 0.28 m away): after
+        MAX_RELEASE_STALLS the tool goes back down and the run stops there, the block named.
+        False while stopping (the stop's own error stands)."""
+        runner = self.runner
+        if self.state not in (State.RUNNING, State.RECOVERING) or runner is None:
             return False
+        self.metrics["faults"] += 1
+        self.metrics["faults_not_released"] = self.metrics.get("faults_not_released", 0.0) + 1
+        if self._release_stalls == 0:
+            self._stall_z = runner.commanded.z
         self._release_stalls += 1
-        self._on_grasp_fault(GraspFault(FaultKind.NOT_RELEASED, why, holding_something=True))
+        if self._release_stalls > MAX_RELEASE_STALLS:
+            self._stop_with_fingers_stuck(why)
+            return True
+        self._log(f"{why}: lifting {UNLOAD_LIFT_M * 1e3:.0f} mm and opening again")
+        up = runner.commanded.with_z(runner.commanded.z + UNLOAD_LIFT_M)
+        runner.retry_current([Move(up, self.cfg.approach_limits, "unload the fingers")])
         return True
+
+    def _stop_with_fingers_stuck(self, why: str) -> None:
+        """Fingers that will not open: set what they hold back where they stalled and stop
+        there (parking would carry it off)."""
+        runner = self.runner
+        assert runner is not None
+        block = self.held.block if self.held is not None else None
+        what = "the fingers" if block is None else f"block {block} in the fingers"
+        tool = runner.commanded
+        self.last_error = (f"{why}; the fingers do not open: stopped with {what} at "
+                           f"({tool.x:.3f}, {tool.y:.3f})")
+        self.detail = self.last_error
+        self._log(f"stopping: {self.last_error}")
+        self._enter(State.STOPPING)
+        self.supervisor.stop_judging()
+        down = tool.with_z(self._stall_z)
+        self._start_runner([Move(down, self.cfg.approach_limits, "stop: set it back down")],
+                           After.STOPPED)
 
     # --- recovery -------------------------------------------------------------------------------
     def _recover_held_block(self) -> None:

@@ -150,7 +150,7 @@ def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,
 def let_go_steps(geo: GripperGeometry, cfg: ExecutorConfig, label: str) -> list[Step]:
     """Open the fingers where the tool is (whatever they hold stays there) and rise to travel
     height."""
-    return [Grip(geo.approach_opening, cfg.gripper_settle_s, f"{label}: open", stall_ok=True),
+    return [Grip(geo.approach_opening, cfg.gripper_settle_s, f"{label}: open"),
             Rise(cfg.travel_height, cfg.vertical_limits, f"{label}: rise")]
 
 

@@ -67,7 +67,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
     },
     State.STOPPING: {
         State.STOPPED: "parked after a stop request",
-        State.FAILED: "parked after an error",
+        State.FAILED: "parked after an error (fingers that do not open: stopped where they "
+                      "hold the block)",
         State.STOPPING: "set down what the fingers hold first",
     },
     State.STOPPED: {State.IDLE: "start requested"},

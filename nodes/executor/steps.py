@@ -64,9 +64,6 @@ class Grip:
     holds: int | None = None
     wait: bool = True
     squares: bool = False
-    #: An opening that stops short of ``opening`` counts as done (a let-go: whatever the
-    #: fingers still hold is found by the look that follows).
-    stall_ok: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -250,6 +247,13 @@ class StepRunner:
         self._move = None
         self._blending = []
 
+    def retry_current(self, before: Sequence[Step]) -> None:
+        """Play ``before`` from where the tool is, then the current step again from its start,
+        then the rest (a release that stalled: lift off the load, open again)."""
+        self.steps[self.index:self.index] = list(before)
+        self._t0 = None
+        self._move = None
+
     def _target(self, step: Move | Rise) -> ToolPose:
         if isinstance(step, Move):
             return step.target
@@ -328,8 +332,6 @@ class StepRunner:
         else:
             done = t >= GRIP_MIN_S and _gripper_done(self._gaps, step.opening, t)
         if not done and measured and t > GRIP_MIN_S and _opening_stalled(self._gaps, step.opening):
-            if step.stall_ok:
-                return Tick(self.commanded, gripper, True, label=step.label)
             return Tick(self.commanded, gripper, False, label=step.label, stalled=True,
                         error=f"step '{step.label}': the fingers stopped opening at "
                               f"{measured[-1][1] * 1e3:.1f} mm (asked for "

@@ -282,15 +282,21 @@ def test_an_opening_that_stalls_short_is_reported_as_stalled_long_before_the_tim
     assert "stopped opening at 52.9 mm (asked for 68.8 mm)" in tick.error
 
 
-def test_a_let_go_accepts_an_opening_that_stalls():
-    runner = StepRunner([Grip(0.0688, 0.3, "recover: open", stall_ok=True)], HOME, 0.002, 1.0)
-    t = 0.0
-    while t < 1.0:
-        tick = runner.update(t, HOME, gaps=[(t, stalls_at(0.0529)(t))])
-        if tick.done or tick.error:
-            break
+def test_a_step_tried_again_runs_after_what_goes_before_it_then_the_rest_follows():
+    up = ToolPose(HOME.x, HOME.y, HOME.z + 0.003, HOME.yaw)
+    after = Move(ToolPose(HOME.x, HOME.y, HOME.z + 0.1, HOME.yaw), CFG.vertical_limits, "retreat")
+    runner = StepRunner([Grip(0.0688, 0.3, "release"), after], HOME, 0.002, 1.0)
+    runner.update(0.0, HOME, gaps=[(0.0, 0.0509)])
+    runner.retry_current([Move(up, CFG.approach_limits, "unload")])
+    assert [s.label for s in runner.steps] == ["unload", "release", "retreat"]
+    t, tool, labels = 0.0, HOME, []
+    while not runner.finished and t < 5.0:
         t += 0.02
-    assert tick.done and not tick.error
+        tick = runner.update(t, tool, gaps=[(t, 0.0688)])
+        tool = tick.setpoint
+        labels.append(runner.current_label)
+    assert labels.index("release") > labels.index("unload")
+    assert runner.finished and tool.z == pytest.approx(HOME.z + 0.1)
 
 
 def test_a_gripper_that_neither_arrives_nor_stops_is_an_error():
