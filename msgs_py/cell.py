@@ -63,9 +63,11 @@ ACTION_HEIGHTS = (PUSH_HEIGHT, GRASP_HEIGHT, GRASP_HEIGHT + PLACE_DROP, TRAVEL_H
 #: (30 scenes at a06bdb2), over the cell's 1 mm / 1 deg. 1 mm needs a view that holds still:
 #: the detector's hand-eye correction moves only when a placement disagrees with it
 #: (nodes/detector/handeye.py); before, each of its updates shifted every block past 1 mm and
-#: cost a replan, up to giving up. The realistic camera's yaw errs by up to 0.65 deg.
+#: cost a replan, up to giving up. Yaw stays 1.5 deg: at 1 deg (tried at 4eb4bf7) a block
+#: whose release turns it by 1-2.5 deg was placed again and again (12 of 16 replans in 30
+#: scenes were yaw; a run gave up after 6); the realistic camera's yaw errs by up to 0.65 deg.
 PLACED_TOLERANCE_XY = 0.001
-PLACED_TOLERANCE_YAW_DEG = 1.0
+PLACED_TOLERANCE_YAW_DEG = 1.5
 #: When no plan corrects a block, this close to its goal is accepted as done (m, deg).
 ACCEPT_TOLERANCE_XY = 0.003
 ACCEPT_TOLERANCE_YAW_DEG = 2.0

@@ -110,7 +110,7 @@ class PlannerConfig:
     goal_tolerance_yaw: float = param(
         round(math.radians(cell.PLACED_TOLERANCE_YAW_DEG), 4),
         "yaw tolerance (modulo 90 deg unless yaw_exact) for 'already placed'; "
-        "1 deg, the executor's yaw_tolerance_deg, so a block the executor finds off its "
+        "1.5 deg, the executor's yaw_tolerance_deg, so a block the executor finds off its "
         "goal is one the planner moves again", unit="rad")
     near_goal_tolerance_xy: float = param(
         cell.ACCEPT_TOLERANCE_XY,

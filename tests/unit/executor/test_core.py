@@ -398,7 +398,7 @@ def test_a_replan_asked_for_by_a_detection_callback_leaves_with_the_next_tick():
 @pytest.mark.parametrize("twist_deg, accepted", [(1.8, True), (3.0, False)])
 def test_a_residual_the_planner_cannot_correct_is_accepted_only_within_tolerance(
         twist_deg, accepted):
-    """A block left 1.8 deg off after the last push: correction wanted (> 1 deg), the planner
+    """A block left 1.8 deg off after the last push: correction wanted (> 1.5 deg), the planner
     finds none, and 1.8 deg is within the 2 deg acceptance: done, residual named. 3 deg is not."""
     core = ExecutorCore(CFG)
     world = World(core, START)
