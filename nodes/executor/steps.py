@@ -109,7 +109,9 @@ GRIP_NO_MOTION_S = 0.3
 #: arm rise and tip the block it has just set down.
 GRIP_OPEN_SLACK = 0.002
 #: An opening still for this long short of it has stalled: something holds the fingers (s).
-GRIP_STALL_S = 0.4
+#: Counted from the command (the fingers stand still before it, and for the gripper's
+#: latency after it); a pad that drags on the block pauses for less.
+GRIP_STALL_S = 1.0
 #: A gripper that neither reaches its opening nor stops within this long has failed (s).
 GRIP_TIMEOUT_S = 3.0
 
@@ -331,7 +333,7 @@ class StepRunner:
             done = t >= step.settle_s
         else:
             done = t >= GRIP_MIN_S and _gripper_done(self._gaps, step.opening, t)
-        if not done and measured and t > GRIP_MIN_S and _opening_stalled(self._gaps, step.opening):
+        if not done and t >= GRIP_STALL_S and _opening_stalled(measured, step.opening):
             return Tick(self.commanded, gripper, False, label=step.label, stalled=True,
                         error=f"step '{step.label}': the fingers stopped opening at "
                               f"{measured[-1][1] * 1e3:.1f} mm (asked for "
@@ -404,16 +406,17 @@ class BrakingMove(LinearMove):
         return a.plus(u * (b.x - a.x), u * (b.y - a.y), u * (b.z - a.z), 0.0)
 
 
-def _opening_stalled(gaps: list[tuple[float, float]], opening: float) -> bool:
-    """The fingers were told to open, moved, and have stood still for GRIP_STALL_S short of
-    the opening (a pause on a block's face is shorter)."""
-    t_last, g_last = gaps[-1]
-    if not opening > gaps[0][1] + GRIP_MOVED_M or g_last >= opening - GRIP_OPEN_SLACK:
+def _opening_stalled(since_command: list[tuple[float, float]], opening: float) -> bool:
+    """Told to open, the fingers have stood still for the last half GRIP_STALL_S short of the
+    opening. ``since_command``: the (time, gap) samples taken since the command."""
+    if len(since_command) < 2:
         return False
-    if t_last - gaps[0][0] < GRIP_STALL_S:
+    t_last, g_last = since_command[-1]
+    span = 0.5 * GRIP_STALL_S
+    if g_last >= opening - GRIP_OPEN_SLACK or t_last - since_command[0][0] < span:
         return False
-    window = [g for t, g in gaps if t >= t_last - GRIP_STALL_S]
-    return max(window) - min(window) <= GRIP_STILL_SPEED * GRIP_STALL_S
+    window = [g for t, g in since_command if t >= t_last - span]
+    return max(window) - min(window) <= GRIP_STILL_SPEED * span
 
 
 def _gripper_done(gaps: list[tuple[float, float]], opening: float, elapsed: float) -> bool:

@@ -282,6 +282,27 @@ def test_an_opening_that_stalls_short_is_reported_as_stalled_long_before_the_tim
     assert "stopped opening at 52.9 mm (asked for 68.8 mm)" in tick.error
 
 
+def test_a_release_tried_again_gets_its_own_time_before_it_counts_as_stalled():
+    """In the cell, the release tried again after a stall was judged stalled 0.13 s later,
+    on the samples from before it; it must be given GRIP_STALL_S of its own."""
+    runner = StepRunner([Grip(0.0688, 0.3, "release")], HOME, 0.002, 1.0)
+    t, tick = 0.0, None
+    while not (tick and tick.stalled):
+        tick = runner.update(t, HOME, gaps=[(t, 0.0526)])
+        t += 0.02
+    up = ToolPose(HOME.x, HOME.y, HOME.z + 0.003, HOME.yaw)
+    runner.retry_current([Move(up, CFG.approach_limits, "unload")])
+    retried_at = None
+    while t < 10.0:
+        tick = runner.update(t, up, gaps=[(t, 0.0526)])
+        if retried_at is None and runner.current_label == "release":
+            retried_at = t
+        if tick.stalled:
+            break
+        t += 0.02
+    assert retried_at is not None and t - retried_at >= GRIP_STALL_S - 0.03
+
+
 def test_a_step_tried_again_runs_after_what_goes_before_it_then_the_rest_follows():
     up = ToolPose(HOME.x, HOME.y, HOME.z + 0.003, HOME.yaw)
     after = Move(ToolPose(HOME.x, HOME.y, HOME.z + 0.1, HOME.yaw), CFG.vertical_limits, "retreat")
