@@ -44,9 +44,10 @@ BRING_IN_INSET = 0.015
 MAX_BRING_INS = 3
 #: Tries to set overlapping blocks apart before giving up (each is a pick-and-place and a look).
 MAX_SEPARATIONS = 3
-#: Openings that may stall before an action finishes, each tried again after lifting the tool
-#: UNLOAD_LIFT_M (a block pressed on the table loads the pads); one more stops the run there.
+#: Openings that may stall before an action finishes, each tried again after gripping the block
+#: again where it stands; one more stops the run there.
 MAX_RELEASE_STALLS = 2
+#: With nothing held, a stalled opening is tried again after lifting the tool this far (m).
 UNLOAD_LIFT_M = 0.003
 #: Deceleration when a fault stops the arm mid-move (m/s^2).
 BRAKE_DECEL = 5.0
@@ -137,12 +138,13 @@ class FaultHandling(_Base):
         self._after = After.RECOVERED
 
     def _on_release_stall(self, why: str) -> bool:
-        """The fingers stopped opening short of the opening, still pressing on the block (seen
-        in the cell: 38 N on one corner of each pad, whose lower edge stood 2 mm below where it
-        stands at a normal release). Lift the tool UNLOAD_LIFT_M and open again, then go on
-        with the script. Rising further with a block
-        the fingers will not let go would carry it off (it once ended 0.28 m away): after
-        MAX_RELEASE_STALLS the tool goes back down and the run stops there, the block named.
+        """The fingers stopped opening short of the opening, still pressing on the block they
+        had just let go. Seen in the cell and reproduced in the scripted sim: the block turns
+        a degree or two about one pad as the fingers part, and the simulated contact then
+        presses that pad into it (43 N). Gripping it again where it stands squares it between
+        the pads, and the next opening lets go cleanly (the same repro). Rising with a block
+        the fingers will not let go would carry it off (at 4eb4bf7 it ended 0.28 m away):
+        after MAX_RELEASE_STALLS the tool stays and the run stops there, the block named.
         False while stopping (the stop's own error stands)."""
         runner = self.runner
         if self.state not in (State.RUNNING, State.RECOVERING) or runner is None:
@@ -155,9 +157,16 @@ class FaultHandling(_Base):
         if self._release_stalls > MAX_RELEASE_STALLS:
             self._stop_with_fingers_stuck(why)
             return True
-        self._log(f"{why}: lifting {UNLOAD_LIFT_M * 1e3:.0f} mm and opening again")
-        up = runner.commanded.with_z(runner.commanded.z + UNLOAD_LIFT_M)
-        runner.retry_current([Move(up, self.cfg.approach_limits, "unload the fingers")])
+        held = self.held.block if self.held is not None else None
+        if held is None:  # nothing to grip: lift off whatever presses and open again
+            self._log(f"{why}: lifting {UNLOAD_LIFT_M * 1e3:.0f} mm and opening again")
+            up = runner.commanded.with_z(runner.commanded.z + UNLOAD_LIFT_M)
+            runner.retry_current([Move(up, self.cfg.approach_limits, "unload the fingers")])
+            return True
+        self._log(f"{why}: gripping block {held} again where it stands and opening again")
+        self.supervisor.stop_judging()
+        runner.retry_current([Grip(self.cfg.grip_command, self.cfg.gripper_settle_s,
+                                   f"block {held}: grip again", holds=held)])
         return True
 
     def _stop_with_fingers_stuck(self, why: str) -> None:

@@ -591,15 +591,15 @@ def test_a_stray_close_while_approaching_is_undone_and_the_action_tried_again():
 
 
 class StallingGripper(Gripper):
-    """Its first release sticks: the fingers stay on the block, pressing (seen in the cell,
-    with the tool 2 mm below its release height), until the tool has risen ``unload_m`` above
-    where the release began (never, with None)."""
+    """Its first release sticks: the fingers stay on the block, pressing (seen in the cell),
+    until it is gripped again (``freed_by_grip``; else never)."""
 
-    def __init__(self, world: World, unload_m: float | None) -> None:
+    def __init__(self, world: World, freed_by_grip: bool) -> None:
         super().__init__(world)
-        self.unload_m = unload_m
-        self.stuck_z: float | None = None
+        self.freed_by_grip = freed_by_grip
+        self.stuck = False
         self.stuck_once = False
+        self.stuck_z: float | None = None
 
     def tick(self, t: float, command: float | None) -> None:
         if command is not None:
@@ -607,31 +607,32 @@ class StallingGripper(Gripper):
         tool = self.world.core.commanded or self.world.core.tcp
         if (not self.stuck_once and self.holding is not None
                 and self.requested > self.gap + 1e-9):
-            self.stuck_once, self.stuck_z = True, tool.z
-        if self.stuck_z is not None and (self.unload_m is None
-                                         or tool.z < self.stuck_z + self.unload_m - 1e-6):
+            self.stuck_once, self.stuck, self.stuck_z = True, True, tool.z
+        if self.stuck and self.requested < self.gap and self.freed_by_grip:
+            self.stuck = False  # gripped again: squared between the pads, held as before
+        if self.stuck:
             tool_yaw0, theta0 = self.grip  # still in the fingers, going where they go
             self.world.blocks[self.holding] = Pose2D(tool.x, tool.y,
                                                      theta0 + tool.yaw - tool_yaw0)
-            self.world.core.on_gripper(GripperStatus(self.gap, self.requested,
-                                                     "stopped_opening", round(t * 1e9)))
+            status = "stopped_closing" if self.requested < self.gap else "stopped_opening"
+            self.world.core.on_gripper(GripperStatus(self.gap, self.requested, status,
+                                                     round(t * 1e9)))
             return
-        self.stuck_z = None
         super().tick(t, None)
 
 
-def test_a_release_that_stalls_is_lifted_off_the_load_and_opened_again():
-    """The fingers stay on the block after a release: lift the tool 3 mm, open again, go on.
-    Before, the run waited 3 s and stopped (then: open, rise, look, which carried the block
-    off when the fingers still held it)."""
+def test_a_release_that_stalls_is_gripped_again_and_let_go():
+    """The fingers stay on the block after a release: grip it again where it stands, open
+    again, go on. Before, the run waited 3 s and stopped (then: open and rise, which carried
+    the block off when the fingers still held it)."""
     core = ExecutorCore(CFG)
     world = World(core, START)
-    StallingGripper(world, unload_m=0.002)
+    StallingGripper(world, freed_by_grip=True)
     core.on_plan(two_action_plan())
     world.run(lambda: core.state in (State.DONE, State.FAILED))
     assert core.state is State.DONE, core.last_error
     assert core.metrics["faults_not_released"] == 1
-    assert any("stopped opening at 50.8 mm" in line and "opening again" in line
+    assert any("stopped opening at 50.8 mm" in line and "gripping block 1 again" in line
                for line in world.logs)
     assert world.replan_requests == 0
     assert world.blocks[1].distance_to(GOAL[1]) < 1e-3
@@ -640,13 +641,13 @@ def test_a_release_that_stalls_is_lifted_off_the_load_and_opened_again():
 def test_fingers_that_never_open_stop_the_run_there_with_the_block_not_carried_off():
     core = ExecutorCore(CFG)
     world = World(core, START)
-    gripper = StallingGripper(world, unload_m=None)
+    gripper = StallingGripper(world, freed_by_grip=False)
     core.on_plan(two_action_plan())
     world.run(lambda: core.state in (State.DONE, State.FAILED))
     assert core.state is State.FAILED
     assert "the fingers do not open: stopped with block 1 in the fingers" in core.last_error
     assert core.metrics["faults_not_released"] == 3
-    assert world.blocks[1].distance_to(GOAL[1]) < 1e-3  # set back where it was let go
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-3  # never carried off
     assert world.setpoints[-1][2].z == pytest.approx(gripper.stuck_z)
 
 
