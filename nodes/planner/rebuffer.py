@@ -29,6 +29,10 @@ from nodes.planner.shortcut import _merged, _replay
 
 #: Distances (block sizes) from the goal at which a buffer on a push line into it is tried.
 LINE_STEPS = (0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0)
+#: Most actions from a block's first move to its last one merged: every moment in between is
+#: tried with a replay of the rest, so the cost grows with the square of the window (a long
+#: plan of many blocks would spend seconds here; in a 9-block plan every window fits).
+MAX_WINDOW = 24
 
 
 def line_buffers(ctx: PlanContext, goal: Pose2D) -> list[Pose2D]:
@@ -52,17 +56,12 @@ def _moves(actions: list[Action], block: int, after: int) -> list[int]:
     return [k for k in range(after, len(actions)) if actions[k].block == block]
 
 
-def _is_push(actions: list[Action], r: int | None) -> bool:
-    return r is not None and isinstance(actions[r], Push)
-
-
-def _buffers(ctx: PlanContext, actions: list[Action], q: int, r: int | None
-             ) -> list[tuple[Pose2D, bool]]:
-    """(buffer, whether a last move from it to the end follows): the end of move q, or of
-    move r when that is a push (then also the poses on push lines into it)."""
-    if not _is_push(actions, r):
-        return [(actions[q].to, False)]
-    end = actions[r].to
+def _buffers(ctx: PlanContext, end: Pose2D, pushed: bool) -> list[tuple[Pose2D, bool]]:
+    """(buffer, whether a last move from it to ``end`` follows): ``end`` itself, and when
+    the block's last move is a push into ``end`` (``pushed``) the poses on push lines into
+    it."""
+    if not pushed:
+        return [(end, False)]
     return [(end, False)] + [(x, True) for x in line_buffers(ctx, end)]
 
 
@@ -71,12 +70,13 @@ def _try(ctx: PlanContext, start: dict[int, Pose2D], actions: list[Action], p: i
     """Moves p and q (and r when a push, see ``_buffers``) of one block replaced by a move to
     a buffer at some moment between p and q (and the push from it); None if none fits."""
     block, origin = actions[p].block, actions[p].from_
-    between, last = actions[p + 1:q], (r if _is_push(actions, r) else q)
+    pushed = r is not None and isinstance(actions[r], Push) and r - q <= MAX_WINDOW
+    between, last = actions[p + 1:q], (r if pushed else q)
     after = actions[q + 1:last]
     final_state = _state_at(start, actions, last)  # where the others stand before the end
     end = actions[last].to
     options = []
-    for x, then in _buffers(ctx, actions, q, r):
+    for x, then in _buffers(ctx, end, pushed):
         if x.distance_to(origin) < 1e-9:
             continue
         if then:
@@ -129,7 +129,7 @@ def rebuffer(ctx: PlanContext, start: dict[int, Pose2D], actions: list[Action]
     p = 0
     while p < len(actions):
         nxt = _moves(actions, actions[p].block, p + 1)
-        if not nxt:
+        if not nxt or nxt[0] - p > MAX_WINDOW:
             p += 1
             continue
         merged = _try(ctx, start, actions, p, nxt[0], nxt[1] if len(nxt) > 1 else None)
