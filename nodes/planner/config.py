@@ -93,6 +93,16 @@ class PlannerConfig:
         True, "option: try blocks in an assembly order of the goal layout (paper: by id)")
     shortcut: bool = param(
         True, "option: merge two moves of the same block into one where the plan allows it")
+    rebuffer: bool = param(
+        True, "option: after the shortcut pass, replace two moves of a block (out of the way, "
+        "then on) by one to a better buffer, with hindsight: its next end itself, or a pose on "
+        "a push line into it, at any moment between the two moves")
+    frozen_budget_s: float = param(
+        2.0, "planning time when the start leaves a block off its goal that no grasp and no "
+        "push of 5 mm or more can free, even with every block that can move gone "
+        "(nodes/planner/frozen.py; a permuted grid whose hole is not its centre): such a "
+        "scene has no plan short of slides within the gaps, so the planner fails soon, "
+        "naming the blocks", unit="s")
     improve_factor: float = param(
         4.0, "anytime improvement: after the first plan, pIRS restarts (other samples, "
         "near ties in the order broken at random) for improve_factor x the first solve's time "
@@ -129,7 +139,7 @@ class PlannerConfig:
 
     def __post_init__(self) -> None:
         for name in ("finger_thickness", "finger_width", "push_opening", "push_max_distance",
-                     "budget_s", "a1", "a2"):
+                     "budget_s", "a1", "a2", "frozen_budget_s"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
         for name in ("approach_clearance", "finger_clearance", "push_contact_depth",

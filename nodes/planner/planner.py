@@ -1,18 +1,21 @@
 """pIRS for labeled goals: a scene in, a validated plan out.
 
 ``plan_scene`` builds the work cell's space (``cell_pirs.CellPirs``), runs pIRS (``pirs``)
-within the budget, merges two moves of a block where the plan allows (``shortcut``) and
-drops what the plan does without (``necessity``); then restarts pIRS within the improvement
+within the budget, merges two moves of a block where the plan allows (``shortcut``, then
+``rebuffer`` with buffers chosen in hindsight) and drops what the plan does without
+(``necessity``); then restarts pIRS within the improvement
 budget and keeps the shortest validated plan (``improve``), and replays the result through
 the independent validator (``outcome.finish_plan``). It returns a plan with every
 parameter, or a failure naming the block and the reason, and the certified lower bound
 either way (``bound``); it raises ``ValueError``/``MessageError`` only for input it cannot
-accept.
+accept. A start that leaves a block off its goal that no grasp or push can ever free
+(``frozen``) gets only ``frozen_budget_s``, and the failure names those blocks.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -25,10 +28,12 @@ from nodes.planner.budget import Budget
 from nodes.planner.cell_pirs import CellPirs
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext, at_pose
+from nodes.planner.frozen import FROZEN_WHY, frozen_off_goal
 from nodes.planner.improve import ImproveSettings, improve
 from nodes.planner.necessity import necessary_actions
 from nodes.planner.outcome import PlanOutcome, failed, finish_plan
 from nodes.planner.pirs import Pirs, PirsOptions, PlanningFailure
+from nodes.planner.rebuffer import rebuffer
 from nodes.planner.shortcut import shortcut
 from nodes.planner.validator import validate_plan
 
@@ -76,11 +81,18 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
         return failed(budget, bound.value, f"block {walled[0]}: the goal layout walls in the "
                       f"slots of blocks {walled}: in no order can they be set down or pushed "
                       "in", walled[0], metrics)
+    frozen = frozen_off_goal(ctx, start, goals, yaw_exact)
+    if frozen:  # almost surely no plan: fail soon, saying why
+        budget = replace(budget, deadline=min(budget.deadline, time.monotonic()
+                                              + config.frozen_budget_s))
+        metrics["frozen"] = float(len(frozen))
     attempt = _Attempt(scene, config, ctx, assembly, bound, start)
     try:
         actions = attempt.solve(np.random.default_rng(config.seed), 0.0, budget, metrics)
     except PlanningFailure as failure:
-        return failed(budget, bound.value, str(failure), failure.block, metrics)
+        why = str(failure) + (f"; blocks {frozen} are off their goal and {FROZEN_WHY}"
+                              if frozen else "")
+        return failed(budget, bound.value, why, failure.block, metrics)
     before = len(actions)
     actions = necessary_actions(scene, attempt.params, actions)
     metrics["unneeded_dropped"] = float(before - len(actions))
@@ -112,7 +124,7 @@ class _Attempt:
 
     def solve(self, rng: np.random.Generator, jitter: float, budget: Budget,
               metrics: dict[str, float]) -> list[Action]:
-        """pIRS and the shortcut pass; raises PlanningFailure (search figures in
+        """pIRS and the shortcut and rebuffer passes; raises PlanningFailure (search figures in
         ``metrics`` either way)."""
         goals = self.scene.goal_assignment()
         space = CellPirs(self.ctx, goals, self.scene.goal.yaw_exact, rng, self.assembly,
@@ -128,6 +140,10 @@ class _Attempt:
             before = len(actions)
             actions = shortcut(self.ctx, self.start, actions)
             metrics["shortcut_saved"] = float(before - len(actions))
+        if self.config.rebuffer:
+            before = len(actions)
+            actions = rebuffer(self.ctx, self.start, actions)
+            metrics["rebuffer_saved"] = float(before - len(actions))
         return actions
 
     def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
