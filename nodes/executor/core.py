@@ -102,6 +102,7 @@ class ExecutorCore(FaultHandling):
         self._grasp_tries = 0
         self._release_stalls = 0  # openings that stalled since the last finished action
         self._stall_z = 0.0  # the tool height where the first of them began (m)
+        self._stopped_in_place = False  # a stop that does not park (fingers that do not open)
         self._camera_checked = not cfg.camera_check  # the start-of-run check, once a lifetime
         self._probes = 0  # the plan's first actions that are the camera check's re-grips
         self._separations = 0  # overlapping blocks set apart in a row
@@ -737,7 +738,9 @@ class ExecutorCore(FaultHandling):
         elif after is After.STOPPED:
             self.held = None
             self._enter(State.FAILED if self.last_error else State.STOPPED)
-            self._log(f"arm parked: {self.state.value}")
+            where = "stopped over the block it holds" if self._stopped_in_place else "parked"
+            self._stopped_in_place = False
+            self._log(f"arm {where}: {self.state.value}")
 
     def _action_done(self) -> None:
         plan = self.plan

@@ -183,6 +183,7 @@ class FaultHandling(_Base):
         self._log(f"stopping: {self.last_error}")
         self._enter(State.STOPPING)
         self.supervisor.stop_judging()
+        self._stopped_in_place = True
         down = tool.with_z(self._stall_z)
         self._start_runner([Move(down, self.cfg.approach_limits, "stop: set it back down")],
                            After.STOPPED)

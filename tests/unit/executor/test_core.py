@@ -649,6 +649,7 @@ def test_fingers_that_never_open_stop_the_run_there_with_the_block_not_carried_o
     assert core.metrics["faults_not_released"] == 3
     assert world.blocks[1].distance_to(GOAL[1]) < 1e-3  # never carried off
     assert world.setpoints[-1][2].z == pytest.approx(gripper.stuck_z)
+    assert world.logs[-1] == "arm stopped over the block it holds: failed"
 
 
 def test_the_state_table_covers_every_state_and_names_every_change():
