@@ -47,13 +47,20 @@ def test_a_cleared_block_goes_onto_its_push_line_at_once():
     assert out[0].to in line_buffers(ctx, G)
 
 
+#: Where block 3 stands at the start: block 0's end, taken until block 3 leaves.
+C = Pose2D(0.8, 0.1, 0.0)
+
+
+def blocks_0_1_3():
+    """Block 0 on A (it must leave before block 1 arrives), block 1 at Y0, block 3 on C."""
+    return ctx_and_start([BlockPose(0, A.x, A.y, 0.0), BlockPose(1, Y0.x, Y0.y, 0.0),
+                          BlockPose(3, C.x, C.y, 0.0)])
+
+
 def test_a_block_moves_once_when_its_end_frees_up_before_its_start_is_needed():
-    # block 0 must leave A before block 1 arrives; its end C is taken until block 3 leaves:
-    # neither the first nor the last moment works, the one between does
-    c = Pose2D(0.8, 0.1, 0.0)
-    blocks = [BlockPose(0, A.x, A.y, 0.0), BlockPose(1, Y0.x, Y0.y, 0.0),
-              BlockPose(3, c.x, c.y, 0.0)]
-    ctx, start = ctx_and_start(blocks)
+    # neither the first nor the last moment of block 0's two moves works, the one between does
+    c = C
+    ctx, start = blocks_0_1_3()
     plan = [PickPlace(0, A, B, 0), PickPlace(3, c, Z, 0), PickPlace(1, Y0, A, 0),
             PickPlace(0, B, c, 0)]
     assert shortcut(ctx, start, plan) == plan
@@ -64,10 +71,8 @@ def test_a_block_moves_once_when_its_end_frees_up_before_its_start_is_needed():
 
 def test_a_move_that_has_to_stay_is_kept():
     # the end C stays taken until after block 1 needs A: no moment works
-    c = Pose2D(0.8, 0.1, 0.0)
-    blocks = [BlockPose(0, A.x, A.y, 0.0), BlockPose(1, Y0.x, Y0.y, 0.0),
-              BlockPose(3, c.x, c.y, 0.0)]
-    ctx, start = ctx_and_start(blocks)
+    c = C
+    ctx, start = blocks_0_1_3()
     plan = [PickPlace(0, A, B, 0), PickPlace(1, Y0, A, 0), PickPlace(3, c, Z, 0),
             PickPlace(0, B, c, 0)]
     assert rebuffer(ctx, start, plan) == plan
