@@ -210,7 +210,9 @@ def worth_correcting(est: Estimate, samples: Sequence[Sample],
     shift = math.hypot(c.dx, c.dy)
     shift_sigma = math.hypot(est.sigma[0], est.sigma[1])
     ok_shift = shift < MIN_ERROR / 2 or shift_sigma <= MAX_RELATIVE_SIGMA * shift
-    ok_turn = abs(c.w) < YAW_SIGMA or est.sigma[2] <= MAX_RELATIVE_SIGMA * abs(c.w)
+    # a turn is applied only once pinned: one below a placement's yaw noise is still a turn
+    # (0.2 deg moves a block 0.3 m out by 1 mm), and one placement's yaw alone made such turns
+    ok_turn = abs(c.w) < 1e-9 or est.sigma[2] <= MAX_RELATIVE_SIGMA * abs(c.w)
     return ok_shift and ok_turn
 
 

@@ -315,3 +315,23 @@ def test_a_turn_the_check_could_not_see_is_learnt_from_the_placements(seed):
     hand_eye, truth, seen = run_placements((0.005, -0.004), math.radians(0.5), GRID, seed)
     assert abs(math.degrees(hand_eye.correction.w) - 0.5) < 0.15
     assert all(seen[b].distance_to(p) < 6e-4 for b, p in truth.items())
+
+
+def test_one_squared_placement_whose_yaw_reads_a_little_off_corrects_the_shift_only():
+    """Seen in the cell (30 scenes at c09bf72, seed 12): the camera check's one placement,
+    its yaw read 0.2 deg off (within a placement's noise), gave a turn of 0.2 deg, which moved
+    blocks 0.3 m away by 1 mm. One placement pins the turn only through that yaw."""
+    from msgs_py import BlockPose, BlockSet
+    from msgs_py.placement import Placement
+    from nodes.detector.handeye import HandEye
+
+    d = (-0.00018, -0.00007)  # the camera check's shift in that run: too small to apply
+    sample = squared(Pose2D(0.71, 0.02, 0.3), 0.3, d, 0.0)  # near the centre, as there
+    hand_eye = HandEye(CORNERS, CENTRE)
+    hand_eye.on_placement(Placement(3, sample.placed, sample.picked, 0.3, 1, squared=True))
+    seen = sample.seen
+    hand_eye.correct(BlockSet((BlockPose(3, seen.x, seen.y, seen.theta + math.radians(0.2)),),
+                              10**9))
+    assert hand_eye.correction.w == 0.0
+    far = hand_eye.correct(BlockSet((BlockPose(5, 0.95, 0.30, 0.0),), 2 * 10**9)).blocks[0]
+    assert math.hypot(far.x - 0.95, far.y - 0.30) < 3e-4  # before: moved by 1.2 mm
