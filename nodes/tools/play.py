@@ -69,6 +69,22 @@ class Player:
             self.clock_pub.publish(self.clock_msg(clock=Time(sec=stamp_ns // 10**9,
                                                              nanosec=stamp_ns % 10**9)))
 
+    def wait_for_subscribers(self, topics: Sequence[str], timeout_s: float) -> list[str]:
+        """Wait until each of ``topics`` has a subscriber matched (discovery can take seconds
+        on a loaded machine: a fixed delay loses the first messages); the topics still
+        without one after ``timeout_s``."""
+        wanted = {t if t.startswith("/") else "/" + t for t in topics}
+        publishers = {c.topic: self.publishers[c.id] for c in self.connections
+                      if c.topic in wanted}
+        missing = sorted(wanted - set(publishers))
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            waiting = [t for t, p in publishers.items() if p.get_subscription_count() == 0]
+            if not waiting:
+                return missing
+            time.sleep(0.05)
+        return missing + [t for t, p in publishers.items() if p.get_subscription_count() == 0]
+
     def play(self, delay_s: float = 0.0) -> int:
         """Publish every chosen message at its time; returns how many were published."""
         bag0 = self.reader.start_time
@@ -114,6 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--delay", type=float, default=1.0,
                         help="wait this long (s) before the first message, for subscribers "
                         "to discover the publishers")
+    parser.add_argument("--wait-for-subscribers", nargs="*", default=[], metavar="TOPIC",
+                        help="before that delay, wait (up to 60 s) until each of these topics "
+                        "has a subscriber")
     return parser
 
 
@@ -143,6 +162,10 @@ def main(args: Sequence[str] | None = None) -> int:
             player = Player(node, reader, opts.topics, opts.rate, opts.clock_hz)
             print(f"densepack-play: {opts.bag}: {describe(reader)}; rate {opts.rate:g}",
                   flush=True)
+            unmatched = player.wait_for_subscribers(opts.wait_for_subscribers, 60.0)
+            if unmatched:
+                print(f"densepack-play: no subscriber on {', '.join(unmatched)}; playing anyway",
+                      file=sys.stderr, flush=True)
             player.play(opts.delay)
     except KeyboardInterrupt:
         pass

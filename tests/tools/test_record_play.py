@@ -161,8 +161,8 @@ def test_play_republishes_a_bag_at_its_rate_with_the_bag_clock(ros, tmp_path):
                                   lambda m: got.append((time.monotonic(), m)), RELIABLE)
     ros.probe.create_subscription(Clock, "/clock", lambda m: clocks.append(
         stamp_to_ns(m.clock)), RELIABLE)
-    player = subprocess.Popen([*tool("play"), str(bag), "--rate", "2",
-                               "--delay", "2"],
+    player = subprocess.Popen([*tool("play"), str(bag), "--rate", "2", "--delay", "0.5",
+                               "--wait-for-subscribers", "/play_test/truth", "/clock"],
                               cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                               text=True)
     try:
