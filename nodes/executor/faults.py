@@ -107,9 +107,7 @@ class FaultHandling(_Base):
         """Stop the motion, let go of whatever the fingers hold, look again (a stray command
         that left a held block held is only undone)."""
         assert self.runner is not None
-        self.metrics["faults"] += 1
-        key = f"faults_{fault.kind.name.lower()}"
-        self.metrics[key] = self.metrics.get(key, 0.0) + 1.0
+        self._count_fault(fault.kind)
         if fault.kind is FaultKind.MISFIRE and self.supervisor.commanded is not None:
             self._out.gripper = self.supervisor.commanded  # ours again, at once
             if self.supervisor.expect is Expect.HOLD and self.supervisor.holds_block():
@@ -137,6 +135,12 @@ class FaultHandling(_Base):
                           let_go_steps(self.geo, self.cfg, "recover"))
         self._after = After.RECOVERED
 
+    def _count_fault(self, kind: FaultKind) -> None:
+        """One more fault, in the total and in its kind's count (``faults_<kind>``)."""
+        self.metrics["faults"] += 1
+        key = f"faults_{kind.name.lower()}"
+        self.metrics[key] = self.metrics.get(key, 0.0) + 1.0
+
     def _on_release_stall(self, why: str) -> bool:
         """The fingers stopped opening short of the opening, still pressing on the block they
         had just let go. Seen in the cell and reproduced in the scripted sim: the block turns
@@ -149,8 +153,7 @@ class FaultHandling(_Base):
         runner = self.runner
         if self.state not in (State.RUNNING, State.RECOVERING) or runner is None:
             return False
-        self.metrics["faults"] += 1
-        self.metrics["faults_not_released"] = self.metrics.get("faults_not_released", 0.0) + 1
+        self._count_fault(FaultKind.NOT_RELEASED)
         if self._release_stalls == 0:
             self._stall_z = runner.commanded.z
         self._release_stalls += 1

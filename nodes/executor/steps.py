@@ -251,7 +251,7 @@ class StepRunner:
 
     def retry_current(self, before: Sequence[Step]) -> None:
         """Play ``before`` from where the tool is, then the current step again from its start,
-        then the rest (a release that stalled: lift off the load, open again)."""
+        then the rest (a release that stalled: grip the block again, then open again)."""
         self.steps[self.index:self.index] = list(before)
         self._t0 = None
         self._move = None
