@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 from msgs_py import PickPlace, Pose2D, Push, Workspace
-from msgs_py.cell import GripperGeometry
+from msgs_py.cell import CUBE_SYMMETRY, GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
 from nodes.executor.steps import Grip, Move, Rise, Step
@@ -37,17 +37,30 @@ def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
     return equivalent_yaw_near(closing_axis_yaw, cfg.park.yaw)
 
 
+def hand_turn(start: Pose2D, to: Pose2D, yaw_period: float = CUBE_SYMMETRY) -> float:
+    """How far the wrist turns a carried block: the least turn that sets it down at a yaw
+    the goal cannot tell from ``to.theta`` (``yaw_period``: a quarter turn for a cube, a full
+    one when the goal is ``yaw_exact``)."""
+    return math.remainder(to.theta - start.theta, yaw_period)
+
+
 def pick_place_steps(
     action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
-    pick_opening: float | None = None,
+    pick_opening: float | None = None, yaw_period: float = CUBE_SYMMETRY,
 ) -> list[Step]:
     """Steps for ``action`` with the block perceived at ``start``; the fingers open to
     ``pick_opening`` to go down around it (default: the plan's approach opening) and to the
-    plan's approach opening to let it go."""
+    plan's approach opening to let it go.
+
+    The wrist turns the block by the least turn the goal allows (at most 45 deg for a cube),
+    the pick and place yaws centred on the park yaw. Each yaw on its own nearest the park
+    yaw made turns up to 180 deg in the hand: slower, a larger yaw error at release, and in
+    the sim the turn left stale anchored pad contacts that locked the fingers on release."""
     opening = geo.approach_opening if pick_opening is None else pick_opening
-    pick_yaw = tool_yaw(start.theta + action.grasp * math.pi / 2, cfg)
-    turn = math.remainder(action.to.theta - start.theta, 2 * math.pi)
-    place_yaw = tool_yaw(pick_yaw + turn, cfg)
+    turn = hand_turn(start, action.to, yaw_period)
+    pick_yaw = equivalent_yaw_near(start.theta + action.grasp * math.pi / 2,
+                                   cfg.park.yaw - turn / 2)
+    place_yaw = pick_yaw + turn
     pick = ToolPose(start.x, start.y, cfg.travel_height, pick_yaw)
     place = ToolPose(action.to.x, action.to.y, cfg.travel_height, place_yaw)
     tag = f"block {action.block}"
@@ -141,10 +154,11 @@ def look_steps(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> lis
 
 
 def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
-                cfg: ExecutorConfig, pick_opening: float | None = None) -> list[Step]:
+                cfg: ExecutorConfig, pick_opening: float | None = None,
+                yaw_period: float = CUBE_SYMMETRY) -> list[Step]:
     """The first moves of ``action``, up to above its block at travel height: safe to make
     before the world is judged (nothing is touched), so they overlap the camera's wait."""
-    steps = action_steps(action, start, geo, cfg, pick_opening)
+    steps = action_steps(action, start, geo, cfg, pick_opening, yaw_period)
     last = next(k for k, step in enumerate(steps)
                 if isinstance(step, Move) and step.label.endswith(("travel above",
                                                                    "travel behind")))
@@ -153,10 +167,10 @@ def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
 
 def action_steps(
     action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
-    pick_opening: float | None = None,
+    pick_opening: float | None = None, yaw_period: float = CUBE_SYMMETRY,
 ) -> list[Step]:
     if isinstance(action, PickPlace):
-        return pick_place_steps(action, start, geo, cfg, pick_opening)
+        return pick_place_steps(action, start, geo, cfg, pick_opening, yaw_period)
     return push_steps(action, start, geo, cfg)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import shapely
 
 from msgs_py import PickPlace, Pose2D, Workspace
-from msgs_py.cell import BLOCK_SIZE, TABLE_MARGIN, GripperGeometry
+from msgs_py.cell import BLOCK_SIZE, CUBE_SYMMETRY, TABLE_MARGIN, GripperGeometry
 from msgs_py.footprint import (
     block_corners,
     grasp_finger_corners,
@@ -155,7 +155,9 @@ def let_go_steps(geo: GripperGeometry, cfg: ExecutorConfig, label: str) -> list[
 
 
 def bring_in_steps(block: int, at: Pose2D, to: Pose2D, grasp: int, geo: GripperGeometry,
-                   cfg: ExecutorConfig, pick_opening: float | None = None) -> list[Step]:
+                   cfg: ExecutorConfig, pick_opening: float | None = None,
+                   yaw_period: float = CUBE_SYMMETRY) -> list[Step]:
     """Pick the block up where it lies (outside the workspace, say) and place it at ``to``,
     the fingers open to ``pick_opening`` (default: the plan's) to go down around it."""
-    return pick_place_steps(PickPlace(block, at, to, grasp), at, geo, cfg, pick_opening)
+    return pick_place_steps(PickPlace(block, at, to, grasp), at, geo, cfg, pick_opening,
+                            yaw_period)

@@ -46,9 +46,6 @@ FINGER_COUPLING_FORCE = 500.0
 #: the fingers' combined speed exceeds this (m/s).
 GRIPPER_AT_POSITION = 0.0005
 GRIPPER_MOVING_SPEED = 0.002
-#: rad: the wrist turns this far and the friction-anchored contacts are made anew (see
-#: ``SimWorld._renew_turned_contacts``).
-ANCHOR_RENEW_TURN = math.radians(5.0)
 
 
 @dataclass
@@ -183,8 +180,6 @@ class SimWorld:
         self._gripper_queue: list[tuple[float, float]] = []  # (time due, gap) on the way
         self._pad_friction_restore: float | None = None  # a fault's slippery pads end then
         self._slip_until = 0.0
-        self._anchors_yaw = self._wrist_yaw()  # wrist yaw when the contacts were last renewed
-        self._anchors_paused = False
         self.armed: str | None = None  # a fault waiting for its moment (arm_fault)
         self.disturbances: dict[int, _Disturbance] = {}
         self.step_count = 0
@@ -355,44 +350,11 @@ class SimWorld:
     def _set_pad_friction(self, mu: float) -> None:
         """Pad friction ``mu``; friction anchors (which pin contacts regardless of the
         coefficient) are off while the pads are slippery, on the pads and the blocks."""
+        anchor = 1 if mu >= rm.FRICTION_PAD else 0
         for j in self.finger_links:
-            self.client.changeDynamics(self.robot, j, lateralFriction=mu)
-        self._set_anchors(mu >= rm.FRICTION_PAD)
-
-    def _set_anchors(self, on: bool) -> None:
-        """Friction anchors on or off, on the pads and the blocks (a contact is anchored when
-        either body asks for it, so both must be off for a pad-block contact to be free)."""
-        anchor = 1 if on else 0
-        for j in self.finger_links:
-            self.client.changeDynamics(self.robot, j, frictionAnchor=anchor)
+            self.client.changeDynamics(self.robot, j, lateralFriction=mu, frictionAnchor=anchor)
         for body in self.block_bodies.values():
             self.client.changeDynamics(body, -1, frictionAnchor=anchor)
-
-    def _wrist_yaw(self) -> float:
-        return pybullet.getEulerFromQuaternion(self.tcp_pose()[1])[2]
-
-    def _renew_turned_contacts(self) -> None:
-        """Make the anchored contacts anew once the wrist has turned ``ANCHOR_RENEW_TURN``.
-
-        Bullet keeps an anchored contact point, with the normal it had in world axes when it
-        was made, for as long as friction holds it. A block carried through a wrist turn of
-        160 deg kept pad contacts whose normals pointed almost backwards: as the fingers
-        opened, one such contact pressed its pad back into the block at 43 N and the
-        fingers stopped 2 mm open (the "release stall", 6 of 10 on one corner slot). With the
-        anchors off for one step, the points the next collision pass finds replace the old
-        ones, with today's normals; the anchors come back on the step after."""
-        if self._pad_friction_restore is not None:
-            return  # slippery pads: the anchors are off already
-        if self._anchors_paused:
-            self._set_anchors(True)
-            self._anchors_paused = False
-            return
-        yaw = self._wrist_yaw()
-        if abs(math.remainder(yaw - self._anchors_yaw, math.tau)) < ANCHOR_RENEW_TURN:
-            return
-        self._anchors_yaw = yaw
-        self._set_anchors(False)
-        self._anchors_paused = True
 
     def remove_block(self, block_id: int) -> None:
         """Someone takes the block out of the cell."""
@@ -423,8 +385,6 @@ class SimWorld:
             if self._pad_friction_restore is not None and self.time_s >= self._slip_until:
                 self._set_pad_friction(self._pad_friction_restore)
                 self._pad_friction_restore = None
-            if self._anchors_paused or self.step_count % self._contact_every == 0:
-                self._renew_turned_contacts()
             q, v = self.controller.step(self.config.dt, self.time_s + self.config.dt)
             c.setJointMotorControlArray(
                 self.robot, self.arm_joints, pybullet.POSITION_CONTROL, targetPositions=q,

@@ -155,8 +155,8 @@ def test_a_missed_grasp_knocks_the_block_to_the_side_with_room_not_into_its_neig
 #: A placement whose release stalled in the cell (30 scenes at 4eb4bf7 seed 1, and the fault
 #: runs' grasp_miss seed 1): block 0 to the grid's corner slot, yaw pi, grasp 1, with the
 #: blocks of that scene where they stood, the sim seeded 1 and the pick 0.04 mm / 0.15 deg off
-#: (the first draw that stalled in a scripted replay, before the sim renewed its anchored
-#: contacts as the wrist turns: ``SimWorld._renew_turned_contacts``).
+#: (the first draw that stalled in a scripted replay, when the wrist turned the block 162 deg
+#: on the way; it now turns it 18 deg: ``primitives.hand_turn``).
 STALL_BLOCKS = [(0, 0.6233659638277437, -0.04371800670018276, 2.8227276228023057),
                 (1, 0.7071800636097995, 0.045285450668201804, 2.1179709813448837),
                 (2, 0.8033157670817747, 0.021910542083280152, -2.9728923036503354),
@@ -172,11 +172,12 @@ STALL_PICK = Pose2D(0.6233659638277437 + 3.7719066328017984e-05,
 STALL_GOAL = Pose2D(0.6462, -0.0538, math.pi)
 
 
-def test_a_block_carried_through_a_wide_wrist_turn_is_let_go(world_factory):
-    """The wrist turns 160 deg on the way to the corner slot. Before the sim renewed its
-    anchored contacts, a pad contact kept its old normal, pressed the pad back into the block
-    as the fingers opened, and the fingers stopped 2 mm open (the executor's "not released"
-    fault). Now the fingers open fully, at once, and the block stands at its goal."""
+def test_the_placement_that_stalled_lets_go_at_once(world_factory):
+    """The placement that stalled: the wrist turned the block 162 deg on the way to the
+    corner slot, Bullet kept an anchored pad contact with its normal from before the turn,
+    and as the fingers opened it pressed the pad back into the block; they stopped 2 mm
+    open (the executor's "not released" fault). A cube needs at most an eighth of a turn:
+    now the fingers open fully, at once, and the block stands at its goal."""
     from nodes.common.transforms import tool_down_quaternion
     from nodes.executor.steps import StepRunner
 

@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msgs_py import PickPlace, Pose2D, Push
-from msgs_py.cell import GripperGeometry
+from msgs_py.cell import CUBE_SYMMETRY, GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import Limits, LinearMove, ToolPose, move_duration
 from nodes.executor.primitives import (
@@ -194,17 +194,50 @@ def test_a_zero_wait_grip_still_reaches_the_gripper():
     assert commands == [GEO.push_opening]
 
 
-def test_tool_yaws_stay_within_a_quarter_turn_of_the_park_yaw():
-    """Regression: yaws chosen relative to the current one wandered action after action
-    until the wrist ran into its limit and the IK swung the arm onto another branch."""
-    rng = np.random.default_rng(5)
-    for _ in range(200):
+def tool_yaws(action, period=CUBE_SYMMETRY):
+    return [step.target.yaw for step in action_steps(action, action.from_, GEO, CFG,
+                                                     yaw_period=period)
+            if isinstance(step, Move)]
+
+
+def random_pick_places(seed, n=200):
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
         theta, to_theta = rng.uniform(-math.pi, math.pi, 2)
-        action = PickPlace(1, Pose2D(0.6, 0.0, theta), Pose2D(0.7, 0.1, to_theta),
-                           int(rng.integers(2)))
-        for step in action_steps(action, action.from_, GEO, CFG):
-            if isinstance(step, Move):
-                assert abs(step.target.yaw - CFG.park.yaw) <= math.pi / 2 + 1e-9
+        yield PickPlace(1, Pose2D(0.6, 0.0, theta), Pose2D(0.7, 0.1, to_theta),
+                        int(rng.integers(2)))
+
+
+def test_tool_yaws_stay_near_the_park_yaw():
+    """Regression: yaws chosen relative to the current one wandered action after action
+    until the wrist ran into its limit and the IK swung the arm onto another branch. Pick
+    and place are centred on the park yaw: each within a quarter turn and half the hand's
+    turn of it."""
+    for action in random_pick_places(5):
+        for yaw in tool_yaws(action):
+            assert abs(yaw - CFG.park.yaw) <= math.pi / 2 + math.pi / 8 + 1e-9
+
+
+def test_the_wrist_turns_a_cube_at_most_an_eighth_turn_and_sets_it_down_as_the_goal_says():
+    """Regression: each yaw on its own nearest the park yaw turned blocks up to 180 deg in
+    the hand (the cell's release stalls came after such turns)."""
+    for action in random_pick_places(6):
+        yaws = tool_yaws(action)
+        turn = yaws[-1] - yaws[0]  # the wrist turns the held block by this
+        assert abs(turn) <= math.pi / 4 + 1e-9
+        placed = action.from_.theta + turn
+        assert abs(math.remainder(placed - action.to.theta, CUBE_SYMMETRY)) < 1e-9
+
+
+def test_a_yaw_exact_goal_gets_the_block_at_exactly_its_yaw():
+    """With ``yaw_exact`` a quarter turn is not the same: the hand turns the block to the
+    goal's own yaw (before, a half turn could be added to keep the tool near the park yaw)."""
+    for action in random_pick_places(7):
+        yaws = tool_yaws(action, 2 * math.pi)
+        placed = action.from_.theta + yaws[-1] - yaws[0]
+        assert abs(math.remainder(placed - action.to.theta, 2 * math.pi)) < 1e-9
+        for yaw in yaws:
+            assert abs(yaw - CFG.park.yaw) <= math.pi + 1e-9
 
 
 def test_a_rise_never_goes_down():
