@@ -36,7 +36,7 @@ import math
 
 from msgs_py import BlockSet, ExecutorStatus, PickPlace, Plan, Pose2D, Workspace
 from msgs_py.actions import Action
-from msgs_py.cell import CUBE_SYMMETRY, GRIPPER_STROKE, GripperGeometry, table_margin_of
+from msgs_py.cell import GRIPPER_STROKE, GripperGeometry, table_margin_of
 from msgs_py.status import GripperStatus
 from nodes.executor.camera_check import PROBE_GRASPS, probe_actions, probe_block, probe_steps
 from nodes.executor.config import ExecutorConfig
@@ -44,6 +44,7 @@ from nodes.executor.faults import FaultHandling
 from nodes.executor.ledger import TimeLedger
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import (
+    GRASP_SYMMETRY,
     action_steps,
     expected_after,
     hover_steps,
@@ -430,7 +431,7 @@ class ExecutorCore(FaultHandling):
         start = self.expected.get(action.block)
         if start is not None:
             self._start_runner(hover_steps(action, start, self.geo, self.cfg,
-                                           self._pick_opening(action, start), self._yaw_period),
+                                           self._pick_opening(action, start), self._turn_period),
                                After.HOVERING)
 
     def _wait_for_detection(self, now: float) -> None:
@@ -525,13 +526,13 @@ class ExecutorCore(FaultHandling):
         self._finish(f"every block verified at its goal ({len(errors)} blocks)")
 
     @property
-    def _yaw_period(self) -> float:
-        """The turn after which a placed block looks the same to the goal: a quarter turn for
-        a cube, a full one when the goal is ``yaw_exact``."""
+    def _turn_period(self) -> float:
+        """Placed this turn off its goal yaw, a block is as good as at it, its fingers where
+        the planner checked them: a half turn for a cube, a full one when ``yaw_exact``."""
         plan = self.plan
         exact = plan is not None and plan.scene is not None and plan.scene.goal is not None \
             and plan.scene.goal.yaw_exact
-        return 2 * math.pi if exact else CUBE_SYMMETRY
+        return 2 * math.pi if exact else GRASP_SYMMETRY
 
     def _goal_errors(self) -> list[Deviation]:
         """Every goal slot's perceived error, also kept in the metrics (worst position, yaw)."""
@@ -618,7 +619,7 @@ class ExecutorCore(FaultHandling):
             steps = probe_steps(action.block, start, self.geo, self.cfg,
                                 opening if opening is not None else self.geo.approach_opening)
         else:
-            steps = action_steps(action, start, self.geo, self.cfg, opening, self._yaw_period)
+            steps = action_steps(action, start, self.geo, self.cfg, opening, self._turn_period)
         self._picked_from = start
         self.expected[action.block] = expected_after(action, start, self.geo)
         if self._looks_after(self.index) and plan.scene is not None:

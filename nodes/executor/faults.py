@@ -323,7 +323,7 @@ class FaultHandling(_Base):
         self._enter(State.RECOVERING)
         opening = self._wide_opening(dict(around), block, grasp, table)
         self._start_runner(bring_in_steps(block, at, spot, grasp, self.geo, self.cfg, opening,
-                                          self._yaw_period), After.RECOVERED)
+                                          self._turn_period), After.RECOVERED)
 
     # --- stopping -------------------------------------------------------------------------------
     def _stop_safely(self, reason: str, failed: bool) -> None:

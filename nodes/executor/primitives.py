@@ -20,10 +20,14 @@ from __future__ import annotations
 import math
 
 from msgs_py import PickPlace, Pose2D, Push, Workspace
-from msgs_py.cell import CUBE_SYMMETRY, GripperGeometry
+from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
 from nodes.executor.steps import Grip, Move, Rise, Step
+
+#: A two-finger grasp is the same under a half turn: a cube placed a half turn from its goal
+#: yaw has its fingers where the planner checked them (a quarter turn would not).
+GRASP_SYMMETRY = math.pi
 
 
 def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
@@ -37,27 +41,28 @@ def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
     return equivalent_yaw_near(closing_axis_yaw, cfg.park.yaw)
 
 
-def hand_turn(start: Pose2D, to: Pose2D, yaw_period: float = CUBE_SYMMETRY) -> float:
-    """How far the wrist turns a carried block: the least turn that sets it down at a yaw
-    the goal cannot tell from ``to.theta`` (``yaw_period``: a quarter turn for a cube, a full
-    one when the goal is ``yaw_exact``)."""
-    return math.remainder(to.theta - start.theta, yaw_period)
+def hand_turn(start: Pose2D, to: Pose2D, turn_period: float = GRASP_SYMMETRY) -> float:
+    """How far the wrist turns a carried block: the least turn that sets it down at
+    ``to.theta`` give or take whole ``turn_period``s (a half turn for a cube: its goal and
+    the planner's finger clearance cannot tell them apart; a full one when the goal is
+    ``yaw_exact``)."""
+    return math.remainder(to.theta - start.theta, turn_period)
 
 
 def pick_place_steps(
     action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
-    pick_opening: float | None = None, yaw_period: float = CUBE_SYMMETRY,
+    pick_opening: float | None = None, turn_period: float = GRASP_SYMMETRY,
 ) -> list[Step]:
     """Steps for ``action`` with the block perceived at ``start``; the fingers open to
     ``pick_opening`` to go down around it (default: the plan's approach opening) and to the
     plan's approach opening to let it go.
 
-    The wrist turns the block by the least turn the goal allows (at most 45 deg for a cube),
+    The wrist turns the block by the least turn the goal allows (at most 90 deg for a cube),
     the pick and place yaws centred on the park yaw. Each yaw on its own nearest the park
     yaw made turns up to 180 deg in the hand: slower, a larger yaw error at release, and in
     the sim the turn left stale anchored pad contacts that locked the fingers on release."""
     opening = geo.approach_opening if pick_opening is None else pick_opening
-    turn = hand_turn(start, action.to, yaw_period)
+    turn = hand_turn(start, action.to, turn_period)
     pick_yaw = equivalent_yaw_near(start.theta + action.grasp * math.pi / 2,
                                    cfg.park.yaw - turn / 2)
     place_yaw = pick_yaw + turn
@@ -155,10 +160,10 @@ def look_steps(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> lis
 
 def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
                 cfg: ExecutorConfig, pick_opening: float | None = None,
-                yaw_period: float = CUBE_SYMMETRY) -> list[Step]:
+                turn_period: float = GRASP_SYMMETRY) -> list[Step]:
     """The first moves of ``action``, up to above its block at travel height: safe to make
     before the world is judged (nothing is touched), so they overlap the camera's wait."""
-    steps = action_steps(action, start, geo, cfg, pick_opening, yaw_period)
+    steps = action_steps(action, start, geo, cfg, pick_opening, turn_period)
     last = next(k for k, step in enumerate(steps)
                 if isinstance(step, Move) and step.label.endswith(("travel above",
                                                                    "travel behind")))
@@ -167,10 +172,10 @@ def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
 
 def action_steps(
     action: PickPlace | Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
-    pick_opening: float | None = None, yaw_period: float = CUBE_SYMMETRY,
+    pick_opening: float | None = None, turn_period: float = GRASP_SYMMETRY,
 ) -> list[Step]:
     if isinstance(action, PickPlace):
-        return pick_place_steps(action, start, geo, cfg, pick_opening, yaw_period)
+        return pick_place_steps(action, start, geo, cfg, pick_opening, turn_period)
     return push_steps(action, start, geo, cfg)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import shapely
 
 from msgs_py import PickPlace, Pose2D, Workspace
-from msgs_py.cell import BLOCK_SIZE, CUBE_SYMMETRY, TABLE_MARGIN, GripperGeometry
+from msgs_py.cell import BLOCK_SIZE, TABLE_MARGIN, GripperGeometry
 from msgs_py.footprint import (
     block_corners,
     grasp_finger_corners,
@@ -24,7 +24,7 @@ from msgs_py.footprint import (
 )
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
-from nodes.executor.primitives import pick_place_steps
+from nodes.executor.primitives import GRASP_SYMMETRY, pick_place_steps
 from nodes.executor.steps import Grip, Move, Rise, Step
 
 #: Finger gap (m) that means "holding a block": the pads stopped on a cube of the contract's
@@ -156,8 +156,8 @@ def let_go_steps(geo: GripperGeometry, cfg: ExecutorConfig, label: str) -> list[
 
 def bring_in_steps(block: int, at: Pose2D, to: Pose2D, grasp: int, geo: GripperGeometry,
                    cfg: ExecutorConfig, pick_opening: float | None = None,
-                   yaw_period: float = CUBE_SYMMETRY) -> list[Step]:
+                   turn_period: float = GRASP_SYMMETRY) -> list[Step]:
     """Pick the block up where it lies (outside the workspace, say) and place it at ``to``,
     the fingers open to ``pick_opening`` (default: the plan's) to go down around it."""
     return pick_place_steps(PickPlace(block, at, to, grasp), at, geo, cfg, pick_opening,
-                            yaw_period)
+                            turn_period)

@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msgs_py import PickPlace, Pose2D, Push
-from msgs_py.cell import CUBE_SYMMETRY, GripperGeometry
+from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import Limits, LinearMove, ToolPose, move_duration
 from nodes.executor.primitives import (
@@ -194,9 +194,9 @@ def test_a_zero_wait_grip_still_reaches_the_gripper():
     assert commands == [GEO.push_opening]
 
 
-def tool_yaws(action, period=CUBE_SYMMETRY):
+def tool_yaws(action, period=math.pi):
     return [step.target.yaw for step in action_steps(action, action.from_, GEO, CFG,
-                                                     yaw_period=period)
+                                                     turn_period=period)
             if isinstance(step, Move)]
 
 
@@ -215,18 +215,20 @@ def test_tool_yaws_stay_near_the_park_yaw():
     turn of it."""
     for action in random_pick_places(5):
         for yaw in tool_yaws(action):
-            assert abs(yaw - CFG.park.yaw) <= math.pi / 2 + math.pi / 8 + 1e-9
+            assert abs(yaw - CFG.park.yaw) <= math.pi / 2 + math.pi / 4 + 1e-9
 
 
-def test_the_wrist_turns_a_cube_at_most_an_eighth_turn_and_sets_it_down_as_the_goal_says():
+def test_the_wrist_turns_a_cube_at_most_a_quarter_turn_and_sets_it_down_as_planned():
     """Regression: each yaw on its own nearest the park yaw turned blocks up to 180 deg in
-    the hand (the cell's release stalls came after such turns)."""
+    the hand (the cell's release stalls came after such turns). The block ends at its goal
+    yaw or a half turn from it: the fingers then stand where the planner checked them (a
+    quarter turn would put them across the other axis, into the neighbours)."""
     for action in random_pick_places(6):
         yaws = tool_yaws(action)
         turn = yaws[-1] - yaws[0]  # the wrist turns the held block by this
-        assert abs(turn) <= math.pi / 4 + 1e-9
+        assert abs(turn) <= math.pi / 2 + 1e-9
         placed = action.from_.theta + turn
-        assert abs(math.remainder(placed - action.to.theta, CUBE_SYMMETRY)) < 1e-9
+        assert abs(math.remainder(placed - action.to.theta, math.pi)) < 1e-9
 
 
 def test_a_yaw_exact_goal_gets_the_block_at_exactly_its_yaw():
