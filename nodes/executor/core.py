@@ -222,7 +222,9 @@ class ExecutorCore(FaultHandling):
         if (self.state is State.IDLE and self.runner is None and self.plan is not None
                 and self._start_requested):
             self._begin_run()
-        if self.state is State.IDLE and self.plan is None:
+        if self.state is State.IDLE and self.runner is None and self._holding_unawares():
+            self._set_down_found_block()
+        elif self.state is State.IDLE and (self.plan is None or self._planner_wants_frame):
             self._look_while_idle(now)
         if self.runner is not None:
             self._run(now)
@@ -276,10 +278,27 @@ class ExecutorCore(FaultHandling):
             return "look"
         return "other"
 
+    def _holding_unawares(self) -> bool:
+        """The fingers hold a block no run put there (an executor restarted mid-carry), and a
+        plan (even one whose goal is gone) says where the workspace is."""
+        return (self.held is None and self.plan is not None and self.plan.scene is not None
+                and self.tcp is not None and self._fingers_hold_something())
+
+    def _set_down_found_block(self) -> None:
+        """Take it beside the workspace (not to the park pose: out of view, it would stay
+        there), look which block is missing, set it down at a free spot, look, then idle.
+        Until then the planner, waiting for a frame that shows every block, has none."""
+        self._log(f"the fingers hold something ({self.finger_gap * 1e3:.1f} mm apart) and no "
+                  "run is going: looking which block it is, to set it down")
+        self.held = Held(None)
+        self._observe(Purpose.IDLE, near=True)
+
     def _look_while_idle(self, now: float) -> None:
-        """No plan yet: park, and show the planner the blocks with the arm out of view."""
+        """No plan yet (or the planner waits for a frame): park, and show the planner the
+        blocks with the arm out of view. Not with a block in the fingers: parked, it would be
+        carried out of the cell; it is set down once a plan gives the workspace."""
         period = self.cfg.idle_look_period_s
-        if period <= 0 or self.runner is not None:
+        if period <= 0 or self.runner is not None or self._fingers_hold_something():
             return
         if self.commanded is None or self.commanded.distance_to(self.cfg.park) > 1e-6:
             self._start_runner(park_steps(self.cfg), After.IDLE_PARKED)
@@ -460,6 +479,12 @@ class ExecutorCore(FaultHandling):
             return
         if plan.scene is not None and (self._bring_in_outside_block(plan)
                                        or self._separate_overlapping_blocks(plan)):
+            return
+        if self._purpose is Purpose.IDLE:  # a block found in the fingers is down: idle again
+            self.expected = dict(self.perceived)
+            self._enter(State.IDLE)
+            if self._pending_plan is not None:
+                self._adopt(self._pending_plan)
             return
         if self._purpose is Purpose.START:
             self._check_plan_start()

@@ -33,7 +33,8 @@ class State(enum.Enum):
 #: Every state change, and why it happens (the executor refuses any other).
 TRANSITIONS: dict[State, dict[State, str]] = {
     State.IDLE: {
-        State.OBSERVING: "a plan and a start: look before acting",
+        State.OBSERVING: "a plan and a start, or a block in the fingers with no run going: "
+                         "look before acting",
         State.RECOVERING: "the fingers hold a block at start-up: set it down",
         State.STOPPED: "stop requested",
     },
@@ -44,7 +45,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
                           "fingers: deal with it",
         State.REPLANNING: "the world drifted, or a plan must be checked against it",
         State.DONE: "every block verified at its goal",
-        State.IDLE: "the plan is gone",
+        State.IDLE: "the plan is gone, or a block found in the fingers with no run going is "
+                    "set down",
         State.STOPPING: "a block is gone, or stop requested",
     },
     State.RUNNING: {
@@ -96,6 +98,7 @@ class Purpose(enum.Enum):
     RESUME = "resume"  #: after a stop: as before
     RECOVERY = "recovery"  #: after a fault: where are the blocks now?
     GOAL = "goal"  #: after the last action: every block at its goal
+    IDLE = "idle"  #: no run going (a block found in the fingers is set down): then idle
 
 
 @dataclass

@@ -369,6 +369,32 @@ def test_a_block_found_in_the_fingers_at_start_up_is_set_down_then_the_plan_runs
     assert world.replan_requests == 0
 
 
+def test_a_block_in_the_fingers_with_no_run_going_is_set_down_before_the_idle_looks():
+    """An executor restarted mid-carry has lost its goal, not the block in its fingers: the
+    latched plan says where the workspace is, but no run starts. It used to park with the
+    block (out of the cell), and the planner, waiting for a frame showing every block, waited
+    forever. Now it takes the block beside the workspace, finds which one it is, sets it down
+    inside, looks and idles: the next frame shows every block."""
+    core = ExecutorCore(dataclasses.replace(CFG, auto_start=False))
+    world = World(core, [START[0]])  # block 2 is in the fingers, the arm stopped over the cell
+    core.on_tcp(ToolPose(0.75, 0.1, 0.12, 0.0))
+    core.on_finger_gap(0.0508)
+    core.on_plan(two_action_plan())
+    core.on_planner_waiting(True)  # the goal sent again: the planner waits for a frame
+    carried = []  # where the arm went while it held the block
+
+    def set_down_and_idle():
+        if core.held is not None and core.commanded is not None:
+            carried.append(core.commanded)
+        return core.state is State.IDLE and any("setting block 2 down" in line
+                                                for line in world.logs)
+
+    world.run(set_down_and_idle)
+    assert core.held is None and WS.contains_square(world.blocks[2], 0.0508)
+    assert carried and all(tool.distance_to(CFG.park) > 0.1 for tool in carried)
+    assert core.metrics["actions_executed"] == 0  # nothing of the stale plan was run
+
+
 def test_a_held_block_whose_spot_is_taken_goes_to_free_space_and_the_plan_is_redone():
     core = ExecutorCore(CFG)
     squatter = BlockPose(1, 0.80, 0.17, 0.0)  # block 1 now stands where 2 was picked up
