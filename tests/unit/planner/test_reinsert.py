@@ -4,6 +4,7 @@ other blocks' actions; a change the validator refuses is not kept."""
 from __future__ import annotations
 
 from msgs_py import BlockPose, PickPlace, Pose2D, Push, Scene, Workspace
+from nodes.planner import reinsert as reinsert_module
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
 from nodes.planner.reinsert import reinsert, reinsert_block
@@ -61,10 +62,12 @@ def test_a_walled_in_slot_is_still_entered_by_a_push():
     assert isinstance(out[-1], Push) and (out[-1].to.x, out[-1].to.y) == (G.x, G.y)
 
 
-def test_nothing_shorter_gives_none_and_a_refused_change_is_not_kept():
+def test_nothing_shorter_gives_none_and_a_refused_change_is_not_kept(monkeypatch):
     ctx, start = ctx_and_start([BlockPose(0, A.x, A.y, 0.0), BlockPose(1, Y0.x, Y0.y, 0.0)])
     direct = [PickPlace(0, A, X, 0), PickPlace(1, Y0, A, 0)]
     assert reinsert_block(ctx, start, direct, 0) is None
     plan = [PickPlace(0, A, B, 0), PickPlace(1, Y0, A, 0), PickPlace(0, B, X, 0)]
     assert reinsert(ctx, start, plan, lambda actions: False) == plan
     assert len(reinsert(ctx, start, plan, lambda actions: True)) == 2
+    monkeypatch.setattr(reinsert_module, "MAX_ACTIONS", 2)
+    assert reinsert(ctx, start, plan, lambda actions: True) == plan  # too long: left alone
