@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -44,6 +44,7 @@ import numpy as np
 from msgs_py import Pose2D
 from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.assembly import Assembly
+from nodes.planner.bound_starts import StartSearch, start_ways
 from nodes.planner.context import at_pose
 from nodes.planner.geometry import Obstacles, mask_to_int, words
 from nodes.planner.transfer import grasp_checks, push_checks, push_line
@@ -257,7 +258,34 @@ def labeled_bound(ctx, start: Mapping[int, Pose2D], goals: Mapping[int, Pose2D],
                   for k, options in enumerate(first_movers(ctx, start, ids))
                   if todo >> k & 1 and options and all(m & ~todo for m in options))
     relax = Relaxation(asm, todo, exempt, clears, 2.0, walls)
-    return _solve(relax, todo.bit_count(), on_slots, ids)
+    bound = _solve(relax, todo.bit_count(), on_slots, ids)
+    return _with_starts(ctx, bound, relax, start, goals, ids, on_slots)
+
+
+def _with_starts(ctx, bound: LowerBound, relax: Relaxation, start: Mapping[int, Pose2D],
+                 goals: Mapping[int, Pose2D], ids: list[int], fixed: int) -> LowerBound:
+    """``bound`` raised to the start-aware relaxation's value (``bound_starts``) where that
+    is larger: both are lower bounds, so their maximum is one. Only up to ``DP_MAX`` slots
+    (the search is over pairs of subsets); the order and kept set stay the slot
+    relaxation's (the planner's order uses them)."""
+    if relax.todo == 0 or relax.n > DP_MAX:
+        return bound
+    kept_all = ((1 << relax.n) - 1) & ~relax.todo
+    starts = [sub for sub in _subsets(kept_all) if relax.keepable(sub)]
+    ways = start_ways(ctx, start, goals, ids, relax.todo)
+    value = StartSearch(ways, relax.todo, relax.exempt, round(relax.moved_cost)).solve(starts)
+    if value is None or value + fixed <= bound.value:
+        return bound
+    return replace(bound, value=value + fixed, extra=value + fixed - bound.misplaced)
+
+
+def _subsets(mask: int) -> list[int]:
+    out, sub = [], mask
+    while True:
+        out.append(sub)
+        if sub == 0:
+            return out
+        sub = (sub - 1) & mask
 
 
 def first_movers(ctx, start: Mapping[int, Pose2D], ids: list[int]) -> list[list[int]]:

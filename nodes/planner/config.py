@@ -97,6 +97,9 @@ class PlannerConfig:
         True, "option: after the shortcut pass, replace two moves of a block (out of the way, "
         "then on) by one to a better buffer, with hindsight: its next end itself, or a pose on "
         "a push line into it, at any moment between the two moves")
+    reinsert: bool = param(
+        True, "option: after the rebuffer pass, take out every move of a block moved more "
+        "than once and put back the fewest that fit between the other blocks' actions")
     frozen_budget_s: float = param(
         2.0, "planning time when the start leaves a block off its goal that no grasp and no "
         "push of 5 mm or more can free, even with every block that can move gone "

@@ -34,6 +34,7 @@ from nodes.planner.necessity import necessary_actions
 from nodes.planner.outcome import PlanOutcome, failed, finish_plan
 from nodes.planner.pirs import Pirs, PirsOptions, PlanningFailure
 from nodes.planner.rebuffer import rebuffer
+from nodes.planner.reinsert import reinsert
 from nodes.planner.shortcut import shortcut
 from nodes.planner.validator import validate_plan
 
@@ -144,6 +145,11 @@ class _Attempt:
             before = len(actions)
             actions = rebuffer(self.ctx, self.start, actions)
             metrics["rebuffer_saved"] = float(before - len(actions))
+        if self.config.reinsert and not self.scene.goal.yaw_exact:
+            before = len(actions)
+            actions = reinsert(self.ctx, self.start, actions, self.valid,
+                               set(self.scene.goal_assignment()))
+            metrics["reinsert_saved"] = float(before - len(actions))
         return actions
 
     def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
