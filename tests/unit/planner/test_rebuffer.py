@@ -3,30 +3,15 @@ on the push line into its slot, at a moment between its two moves."""
 
 from __future__ import annotations
 
-from msgs_py import BlockPose, PickPlace, Pose2D, Push, Scene, Workspace
-from nodes.planner.config import PlannerConfig
-from nodes.planner.context import PlanContext
+from msgs_py import BlockPose, PickPlace, Pose2D, Push
 from nodes.planner.rebuffer import line_buffers, rebuffer
-from nodes.planner.shortcut import _replay, shortcut
+from nodes.planner.shortcut import shortcut
 
-S = 0.0508
-GAP = 0.003
-WS = Workspace(0.40, 1.00, -0.30, 0.30)
+from .walled_slot import WALLS, G, S, ctx_and_start, feasible
+
 A, B = Pose2D(0.5, 0.0, 0.0), Pose2D(0.5, 0.2, 0.0)
 Y0, Z = Pose2D(0.9, -0.2, 0.0), Pose2D(0.6, -0.2, 0.0)
-G = Pose2D(0.70, 0.15, 0.0)  # walled in on the west, north and south: entered by a push
 P = Pose2D(G.x + S, G.y, 0.0)  # on the push line from the east, taken by block 3 at first
-WALLS = (BlockPose(2, G.x - S - GAP, G.y, 0.0), BlockPose(4, G.x, G.y + S + GAP, 0.0),
-         BlockPose(5, G.x, G.y - S - GAP, 0.0))
-
-
-def ctx_and_start(blocks):
-    scene = Scene(WS, S, tuple(blocks))
-    return PlanContext.for_scene(scene, PlannerConfig()), {b.id: b.pose for b in blocks}
-
-
-def feasible(ctx, start, plan) -> bool:
-    return _replay(ctx, dict(start), plan) is not None
 
 
 def test_a_cleared_block_goes_onto_its_push_line_at_once():

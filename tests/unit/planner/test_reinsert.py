@@ -3,30 +3,14 @@ other blocks' actions; a change the validator refuses is not kept."""
 
 from __future__ import annotations
 
-from msgs_py import BlockPose, PickPlace, Pose2D, Push, Scene, Workspace
+from msgs_py import BlockPose, PickPlace, Pose2D, Push
 from nodes.planner import reinsert as reinsert_module
-from nodes.planner.config import PlannerConfig
-from nodes.planner.context import PlanContext
 from nodes.planner.reinsert import reinsert, reinsert_block
-from nodes.planner.shortcut import _replay
 
-S = 0.0508
-GAP = 0.003
-WS = Workspace(0.40, 1.00, -0.30, 0.30)
+from .walled_slot import WALLS, G, S, ctx_and_start, feasible
+
 A, B = Pose2D(0.5, 0.0, 0.0), Pose2D(0.5, 0.2, 0.0)
 X, Y0 = Pose2D(0.9, 0.2, 0.0), Pose2D(0.9, -0.2, 0.0)
-G = Pose2D(0.70, 0.15, 0.0)  # walled in on the west, north and south: entered by a push
-WALLS = (BlockPose(2, G.x - S - GAP, G.y, 0.0), BlockPose(4, G.x, G.y + S + GAP, 0.0),
-         BlockPose(5, G.x, G.y - S - GAP, 0.0))
-
-
-def ctx_and_start(blocks):
-    scene = Scene(WS, S, tuple(blocks))
-    return PlanContext.for_scene(scene, PlannerConfig()), {b.id: b.pose for b in blocks}
-
-
-def feasible(ctx, start, plan) -> bool:
-    return _replay(ctx, dict(start), plan) is not None
 
 
 def test_three_moves_through_free_space_become_one():
