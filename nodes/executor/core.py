@@ -282,7 +282,7 @@ class ExecutorCore(FaultHandling):
         """The fingers hold a block no run put there (an executor restarted mid-carry), and a
         plan (even one whose goal is gone) says where the workspace is."""
         return (self.held is None and self.plan is not None and self.plan.scene is not None
-                and self.tcp is not None and self._fingers_hold_something())
+                and self._fingers_hold_something())
 
     def _set_down_found_block(self) -> None:
         """Take it beside the workspace (not to the park pose: out of view, it would stay

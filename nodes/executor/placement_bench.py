@@ -20,11 +20,10 @@ from typing import Any
 
 from msgs_py import PickPlace, Pose2D
 from msgs_py.cell import GripperGeometry
-from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
 from nodes.executor.config import ExecutorConfig
-from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import GRASP_SYMMETRY, action_steps
-from nodes.executor.steps import StepRunner
+from nodes.executor.sim_play import play
+from nodes.executor.steps import Grip
 
 COLUMNS = ("blocks", "scenes", "placements", "stalls", "yaw_err_median_deg", "yaw_err_p90_deg",
            "yaw_err_max_deg", "pos_err_median_mm", "pos_err_max_mm", "scenes_failed")
@@ -48,37 +47,18 @@ class Placed:
     stalls: int
 
 
-def tool_pose(world) -> ToolPose:
-    p, q = world.tcp_pose()
-    return ToolPose(*p, yaw_of_matrix(quaternion_to_matrix(q)))
-
-
 def play_action(world, steps, cfg: ExecutorConfig) -> tuple[int, str]:
-    """Stream ``steps`` as the executor does (50 Hz ticks); a stalled opening is counted
-    and let go of as the executor does (grip again, open again). Returns (stalls, error)."""
-    from nodes.executor.steps import Grip
+    """Stream ``steps`` as the executor does; a stalled opening is counted and let go of as
+    the executor does (grip again, open again). Returns (stalls, error)."""
+    stalls = 0
 
-    runner = StepRunner(steps, tool_pose(world), cfg.convergence_tol,
-                        cfg.convergence_timeout_s, cfg.in_safe_box)
-    period = round(world.config.physics_rate_hz / cfg.rate_hz)
-    stalls, t_end = 0, world.time_s + ACTION_LIMIT_S
-    while not runner.finished:
-        if world.time_s > t_end:
-            return stalls, f"not finished in {ACTION_LIMIT_S:.0f} s"
-        now = world.time_s
-        tick = runner.update(now, tool_pose(world), now, [(now, world.gap())])
-        if tick.stalled:
-            stalls += 1
-            runner.retry_current([Grip(cfg.grip_command, cfg.gripper_settle_s, "grip again")])
-            continue
-        if tick.error:
-            return stalls, tick.error
-        if tick.gripper is not None:
-            world.set_gripper(tick.gripper)
-        sp = tick.setpoint
-        world.set_setpoint([sp.x, sp.y, sp.z], tool_down_quaternion(sp.yaw), stamp_s=now)
-        world.step(period)
-    return stalls, ""
+    def grip_again(world, runner) -> None:
+        nonlocal stalls
+        stalls += 1
+        runner.retry_current([Grip(cfg.grip_command, cfg.gripper_settle_s, "grip again")])
+
+    _, error = play(world, steps, cfg, on_stall=grip_again, limit_s=ACTION_LIMIT_S)
+    return stalls, error
 
 
 def run_scene(blocks: int, density: float, seed: int) -> tuple[list[Placed], str]:

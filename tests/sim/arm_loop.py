@@ -1,20 +1,17 @@
-"""Play executor step scripts on a SimWorld, no ROS: 50 Hz ticks, stamped setpoints, the
-gripper's commands and reports, as the executor node and the sim node exchange them."""
+"""Play executor step scripts on a SimWorld for the sim tests: ``nodes.executor.sim_play``,
+an error failing the test."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
 from nodes.executor.config import ExecutorConfig
-from nodes.executor.motion import ToolPose
+from nodes.executor.sim_play import play as play_steps
+from nodes.executor.sim_play import tool_pose
 from nodes.executor.steps import Step, StepRunner
 from nodes.sim.world import SimWorld
 
-
-def tool_pose(world: SimWorld) -> ToolPose:
-    p, q = world.tcp_pose()
-    return ToolPose(*p, yaw_of_matrix(quaternion_to_matrix(q)))
+__all__ = ["play", "tool_pose"]
 
 
 def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
@@ -22,21 +19,6 @@ def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
          on_tick: Callable[[SimWorld], None] = lambda w: None) -> StepRunner:
     """Run ``steps`` to their end; ``on_label`` is called when a new step starts, ``on_tick``
     every tick (fault injection, measurements)."""
-    runner = StepRunner(steps, tool_pose(world), cfg.convergence_tol,
-                        cfg.convergence_timeout_s, cfg.in_safe_box)
-    period = round(world.config.physics_rate_hz / cfg.rate_hz)
-    label = None
-    while not runner.finished:
-        now = world.time_s
-        tick = runner.update(now, tool_pose(world), now, [(now, world.gap())])
-        assert not tick.error, tick.error
-        if tick.gripper is not None:
-            world.set_gripper(tick.gripper)
-        sp = tick.setpoint
-        world.set_setpoint([sp.x, sp.y, sp.z], tool_down_quaternion(sp.yaw), stamp_s=now)
-        if tick.label != label:
-            label = tick.label
-            on_label(world, label)
-        on_tick(world)
-        world.step(period)
+    runner, error = play_steps(world, steps, cfg, on_label, on_tick)
+    assert not error, error
     return runner

@@ -176,28 +176,14 @@ def test_the_placement_that_stalled_lets_go_at_once(world_factory):
     """The placement that stalled: the wrist turned the block 162 deg on the way to the
     corner slot, Bullet kept an anchored pad contact with its normal from before the turn,
     and as the fingers opened it pressed the pad back into the block; they stopped 2 mm
-    open (the executor's "not released" fault). A cube needs at most an eighth of a turn:
-    now the fingers open fully, at once, and the block stands at its goal."""
-    from nodes.common.transforms import tool_down_quaternion
-    from nodes.executor.steps import StepRunner
-
-    from .arm_loop import tool_pose
+    open (the executor's "not released" fault). A cube needs at most a quarter turn: now
+    the fingers open fully, at once, and the block stands at its goal."""
+    from nodes.executor.sim_play import play as play_steps
 
     world = world_factory(STALL_BLOCKS, seed=1)
     world.step(24)
     steps = action_steps(PickPlace(0, STALL_PICK, STALL_GOAL, 1), STALL_PICK, GEO, CFG)
-    runner = StepRunner(steps, tool_pose(world), CFG.convergence_tol,
-                        CFG.convergence_timeout_s, CFG.in_safe_box)
-    period = round(world.config.physics_rate_hz / CFG.rate_hz)
-    while not runner.finished and world.time_s < 20.0:
-        now = world.time_s
-        tick = runner.update(now, tool_pose(world), now, [(now, world.gap())])
-        assert not tick.stalled, world.finger_contacts()
-        assert not tick.error, tick.error
-        if tick.gripper is not None:
-            world.set_gripper(tick.gripper)
-        sp = tick.setpoint
-        world.set_setpoint([sp.x, sp.y, sp.z], tool_down_quaternion(sp.yaw), stamp_s=now)
-        world.step(period)
+    runner, error = play_steps(world, steps, CFG, limit_s=20.0)
+    assert not error, f"{error}; {world.finger_contacts()}"
     assert runner.finished and world.gap() > 0.068
     assert world.block_poses()[0].pose.distance_to(STALL_GOAL) < 0.001
