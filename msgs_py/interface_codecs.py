@@ -53,9 +53,11 @@ from msgs_py.status import (
     EXECUTOR_STATES,
     GRIPPER_OBJECT_STATES,
     PLANNER_STATES,
+    SAFETY_MODES,
     ExecutorStatus,
     GripperStatus,
     PlannerStatus,
+    SafetyMode,
 )
 from msgs_py.tasks import (
     PLAN_ERRORS,
@@ -92,6 +94,7 @@ PLANNER_STATE_CODES = _constants(ifc.PlannerStatus, "STATE_", PLANNER_STATES)
 PLAN_ERROR_CODES = _constants(PlanScene.Response, "ERROR_", PLAN_ERRORS)
 OUTCOME_CODES = _constants(Rearrange.Result, "OUTCOME_", REARRANGE_OUTCOMES)
 GRIPPER_OBJECT_CODES = _constants(ifc.GripperStatus, "OBJECT_", GRIPPER_OBJECT_STATES)
+SAFETY_MODE_CODES = _constants(ifc.SafetyMode, "", SAFETY_MODES)
 SIM_EVENT_CODES = _constants(ifc.SimEvent, "TYPE_", SIM_EVENT_TYPES)
 SIM_FAULT_CODES = _constants(ifc.SimFault, "KIND_", SIM_FAULT_KINDS)
 ACTION_TYPE_CODES = {"pick_place": ifc.PlanAction.PICK_PLACE, "push": ifc.PlanAction.PUSH}
@@ -631,6 +634,18 @@ def gripper_status_from_msg(msg: ifc.GripperStatus) -> GripperStatus:
     return GripperStatus(_float("gap", msg.gap), _float("requested_gap", msg.requested_gap),
                          _code_from("object", GRIPPER_OBJECT_CODES, msg.object),
                          stamp_to_ns(msg.header.stamp))
+
+
+def safety_mode_to_msg(mode: SafetyMode) -> ifc.SafetyMode:
+    msg = ifc.SafetyMode(mode=_code_to("mode", SAFETY_MODE_CODES, mode.mode),
+                         reason=mode.reason)
+    msg.header.stamp = ns_to_stamp(mode.stamp_ns, "stamp_ns")
+    return msg
+
+
+def safety_mode_from_msg(msg: ifc.SafetyMode) -> SafetyMode:
+    return SafetyMode(_code_from("mode", SAFETY_MODE_CODES, msg.mode), str(msg.reason),
+                      stamp_to_ns(msg.header.stamp))
 
 
 def sim_fault_to_msg(fault: SimFault) -> ifc.SimFault:

@@ -34,6 +34,11 @@ GRIPPER_OBJECT_STATES = (
     "at_position",  # reached the requested gap: no object
 )
 
+SAFETY_MODES = (
+    "normal",
+    "protective_stop",  # the arm holds where it stopped until unlocked
+)
+
 PLANNER_STATES = (
     "waiting",  # missing a goal or a detection
     "planning",
@@ -105,3 +110,20 @@ class GripperStatus:
     @property
     def holds_object(self) -> bool:
         return self.object == "stopped_closing"
+
+
+@dataclass(frozen=True, slots=True)
+class SafetyMode:
+    """The arm's safety mode (``SAFETY_MODES``) since ``stamp_ns``, and why it stopped."""
+
+    mode: str
+    reason: str = ""
+    stamp_ns: int = 0
+
+    def __post_init__(self) -> None:
+        if self.mode not in SAFETY_MODES:
+            raise MessageError("mode", self.mode, f"expected one of {list(SAFETY_MODES)}")
+
+    @property
+    def stopped(self) -> bool:
+        return self.mode == "protective_stop"

@@ -128,6 +128,9 @@ class ExecutorCore(FaultHandling):
         self._pending_log: list[str] = []  # lines logged outside tick(), handed on by the next
         self._want_trigger = False
         self._want_replan = False
+        self._arm_stop: str | None = None  # the arm's protective stop, while it lasts
+        self._stop_cleared: str | None = None  # ... once unlocked, until handled
+        self._unlock_asked_at: float | None = None
 
     # --- inputs ---------------------------------------------------------------------------------
     def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
@@ -226,7 +229,9 @@ class ExecutorCore(FaultHandling):
             self._set_down_found_block()
         elif self.state is State.IDLE and (self.plan is None or self._planner_wants_frame):
             self._look_while_idle(now)
-        if self.runner is not None:
+        if self._arm_stop is not None or self._stop_cleared is not None:
+            self._handle_protective_stop()
+        elif self.runner is not None:
             self._run(now)
         elif self.state is State.OBSERVING:
             self._wait_for_detection(now)

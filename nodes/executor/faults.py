@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from msgs_py import Plan, Pose2D, Workspace
 from msgs_py.cell import table_margin_of
 from msgs_py.placement import Placement
+from msgs_py.status import SafetyMode
 from nodes.executor.primitives import park_steps
 from nodes.executor.recovery import (
     bring_in_steps,
@@ -51,6 +52,8 @@ MAX_RELEASE_STALLS = 2
 UNLOAD_LIFT_M = 0.003
 #: Deceleration when a fault stops the arm mid-move (m/s^2).
 BRAKE_DECEL = 5.0
+#: A protective stop not unlocked this long after asking is asked again (s).
+UNLOCK_RETRY_S = 1.0
 
 
 class FaultHandling(_Base):
@@ -134,6 +137,46 @@ class FaultHandling(_Base):
         self.runner.brake(self._now - self._script_lag, BRAKE_DECEL,
                           let_go_steps(self.geo, self.cfg, "recover"))
         self._after = After.RECOVERED
+
+    # --- protective stops ----------------------------------------------------------------------
+    def on_safety_mode(self, mode: SafetyMode) -> None:
+        """The arm's controller stopped the arm (it pressed on something harder than its
+        limit: a block knocked into the path of a descending finger, say), or the stop ended.
+        Handled by the next tick."""
+        if mode.stopped and self._arm_stop is None:
+            self._arm_stop = mode.reason or "protective stop"
+            self._unlock_asked_at = None
+            self.metrics["protective_stops"] = self.metrics.get("protective_stops", 0.0) + 1
+        elif not mode.stopped and self._arm_stop is not None:
+            self._stop_cleared, self._arm_stop = self._arm_stop, None
+
+    def _handle_protective_stop(self) -> None:
+        """While stopped: stream nothing (the arm refuses setpoints), ask for the unlock.
+        Unlocked: drop the script and go on from where the arm stands, as after a descent
+        stopped by something below: back up, look, and plan from what the camera sees."""
+        if self._arm_stop is not None:
+            asked = self._unlock_asked_at
+            if asked is None or self._now - asked >= UNLOCK_RETRY_S:
+                if asked is None:
+                    self._log(f"protective stop: {self._arm_stop}; unlocking the arm")
+                self._unlock_asked_at = self._now
+                self._out.unlock_arm = True
+            self.detail = f"protective stop: {self._arm_stop}"
+            return
+        why, self._stop_cleared = f"protective stop: {self._stop_cleared}", None
+        self.commanded = self.tcp  # the arm stands here: the next script starts from it
+        if self.runner is None:
+            return  # nothing was moving (a hand pressed on the tool): carry on
+        if self.state is State.STOPPING:
+            self._start_runner(park_steps(self.cfg), After.STOPPED)
+        elif self.state is State.RECOVERING and self._setting_apart is not None:
+            self._on_blocked_set_apart(why)
+        elif self.state is State.RUNNING:
+            self._on_blocked_descent(why)
+        else:
+            self._log(f"{why}: backing up and looking again")
+            self._observe(self._purpose if self.state is State.OBSERVING else Purpose.RECOVERY,
+                          near=True)
 
     def _count_fault(self, kind: FaultKind) -> None:
         """One more fault, in the total and in its kind's count (``faults_<kind>``)."""

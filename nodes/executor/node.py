@@ -19,7 +19,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from densepack_interfaces.msg import BlockPoseArray, GripperStatus, Placement
+from densepack_interfaces.msg import BlockPoseArray, GripperStatus, Placement, SafetyMode
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
@@ -38,6 +38,7 @@ from msgs_py.interface_codecs import (
     placement_to_msg,
     plan_from_msg,
     planner_status_from_msg,
+    safety_mode_from_msg,
 )
 from nodes.common.params import declare_config
 from nodes.common.qos import LATCHED, RELIABLE
@@ -55,7 +56,8 @@ subscribes: /plan (densepack_interfaces/Plan, latched),
             /blocks/detected (densepack_interfaces/BlockPoseArray),
             /planner/status (densepack_interfaces/PlannerStatus, latched),
             /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState),
-            /gripper/status (densepack_interfaces/GripperStatus: grasp supervision)
+            /gripper/status (densepack_interfaces/GripperStatus: grasp supervision),
+            /arm/safety_mode (densepack_interfaces/SafetyMode, latched: protective stops)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /gripper/command (std_msgs/Float64),
             /executor/status (densepack_interfaces/ExecutorStatus, latched),
@@ -63,7 +65,7 @@ publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /goal_layout (densepack_interfaces/GoalLayout, latched: a /rearrange goal's layout)
 action:     /rearrange (densepack_interfaces/action/Rearrange)
 services:   /executor/start, /executor/stop (std_srvs/Trigger)
-calls:      /camera/trigger, /planner/replan (std_srvs/Trigger)"""
+calls:      /camera/trigger, /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger)"""
 
 
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
@@ -105,6 +107,7 @@ class ExecutorNode(Node):
         self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
         self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
         self.create_subscription(GripperStatus, "/gripper/status", self.on_gripper, RELIABLE)
+        self.create_subscription(SafetyMode, "/arm/safety_mode", self.on_safety_mode, LATCHED)
         self.placement_pub = self.create_publisher(Placement, "/executor/placements", RELIABLE)
         self.create_subscription(PlannerStatusMsg, "/planner/status", self.on_planner_status,
                                  LATCHED)
@@ -112,6 +115,7 @@ class ExecutorNode(Node):
         self.create_service(Trigger, "/executor/stop", self.on_stop)
         self.camera = self.create_client(Trigger, "/camera/trigger")
         self.replanner = self.create_client(Trigger, "/planner/replan")
+        self.unlocker = self.create_client(Trigger, "/arm/unlock_protective_stop")
         self._last_status: ExecutorStatus | None = None
         self._last_status_time = 0.0
         self.rearrange = RearrangeServer(self)
@@ -174,6 +178,12 @@ class ExecutorNode(Node):
             with self.lock:
                 self.core.on_gripper(status)
 
+    def on_safety_mode(self, msg: SafetyMode) -> None:
+        mode = self._decoded(msg, safety_mode_from_msg, "/arm/safety_mode")
+        if mode is not None:
+            with self.lock:
+                self.core.on_safety_mode(mode)
+
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
             response.message = self.core.request_start()
@@ -204,6 +214,8 @@ class ExecutorNode(Node):
             self._call(self.camera, "/camera/trigger", self._on_frame_taken)
         if out.request_replan:
             self._call(self.replanner, "/planner/replan")
+        if out.unlock_arm:
+            self._call(self.unlocker, "/arm/unlock_protective_stop")
         self._publish_status(status, now)
 
     def _setpoint_msg(self, pose: ToolPose, now) -> PoseStamped:

@@ -50,8 +50,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
         State.STOPPING: "a block is gone, or stop requested",
     },
     State.RUNNING: {
-        State.OBSERVING: "action done, or a descent stopped above its end (something below): "
-                         "look",
+        State.OBSERVING: "action done, or a descent stopped above its end or by a protective "
+                         "stop (something in the way): look",
         State.RECOVERING: "a grasp fault: stop, let go, look",
         State.STOPPING: "an error, or stop requested",
     },
@@ -110,6 +110,7 @@ class Outputs:
     trigger_camera: bool = False
     request_replan: bool = False
     placement: Placement | None = None  #: a block the arm just set down, and where
+    unlock_arm: bool = False  #: call /arm/unlock_protective_stop
     log: list[str] = field(default_factory=list)
 
 

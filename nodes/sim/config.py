@@ -53,6 +53,10 @@ class SimConfig:
                              unit="m")
     speed_scale: float = param(1.0, "fraction of the UR10e joint velocity limits the "
                                     "controller uses (0-1]")
+    tool_force_limit: float = param(
+        20.0, "the arm stops (a protective stop) when the force on the robot from blocks and "
+        "table exceeds this; it follows setpoints again after /arm/unlock_protective_stop "
+        "(0 = off)", unit="N")
     home_joints: tuple = param(list(HOME_JOINTS), "arm joints at start and after /sim/reset "
                                "(the park pose)", unit="rad")
     park_position: tuple = param(list(PARK_POSITION), "park TCP position for the executor "
@@ -71,6 +75,8 @@ class SimConfig:
         "a request/response cycle of a few ms plus the driver's polling)", unit="s")
 
     def __post_init__(self) -> None:
+        if self.tool_force_limit < 0.0:
+            raise ValueError(f"tool_force_limit must be >= 0, got {self.tool_force_limit}")
         if self.physics_rate_hz < 240.0:
             raise ValueError(f"physics_rate_hz must be >= 240, got {self.physics_rate_hz}")
         if self.real_time_factor < 0.0:

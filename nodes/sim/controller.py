@@ -17,6 +17,9 @@ and velocity to command each physics step; the node hands over setpoints and gri
 * A setpoint that starts a stream (after a pause, or the first one) is reached point to
   point: a straight line in joint space, each joint within its velocity and acceleration
   limits, braking to a stop on the target without overshoot.
+* A protective stop (the world calls ``protective_stop`` when the tool presses on something
+  harder than the limit) holds the arm where it is measured and rejects every setpoint until
+  ``unlock``: the UR's safety system does the same, and its driver's dashboard unlocks it.
 """
 
 from __future__ import annotations
@@ -69,12 +72,16 @@ class ArmController:
         self.rejected = 0
         self.scaled_steps = 0  # physics steps in which playback was slowed for the joints
         self.last_reason = ""
+        self.stopped = ""  #: why the arm is in a protective stop ("" = it is not)
 
     # --- setpoints ------------------------------------------------------------------------------
     def set_setpoint(self, position, quat_xyzw, frame_id: str = "world",
                      stamp_s: float | None = None) -> SetpointResult:
         """Accept a TCP pose stamped ``stamp_s`` (s, the sim's clock; None or implausible:
         now) into the stream, or reject it and hold still."""
+        if self.stopped:
+            self.rejected += 1
+            return SetpointResult(False, f"protective stop ({self.stopped}): unlock it first")
         result = self._solve(position, quat_xyzw, frame_id, stamp_s)
         if result.accepted:
             self.accepted += 1
@@ -131,6 +138,19 @@ class ArmController:
         self.playback = None
         self.q_target = self.q_cmd.copy()
         self.v_cmd = np.zeros(6)
+
+    def protective_stop(self, q_measured, why: str) -> None:
+        """Stop at once where the arm is measured (not where it was commanded: that may lie
+        further into what it hit) and take no setpoint until ``unlock``."""
+        self.hold()
+        self.q_cmd = np.array(q_measured, dtype=float)
+        self.q_target = self.q_cmd.copy()
+        self.stopped = why or "stopped"
+
+    def unlock(self) -> bool:
+        """Leave a protective stop; False when there was none."""
+        was, self.stopped = bool(self.stopped), ""
+        return was
 
     def set_joint_target(self, q) -> None:
         """Move to a joint configuration (home/park) point to point, with the same limits."""

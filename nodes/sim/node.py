@@ -29,6 +29,7 @@ from densepack_interfaces.msg import (
     BlockPoseArray,
     Disturbance,
     GripperStatus,
+    SafetyMode,
     SimEvents,
     SimFault,
 )
@@ -54,6 +55,7 @@ from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp, stamp_to_ns
 from msgs_py.sim import SimEvents as SimEventsRecord
 from msgs_py.status import GRIPPER_OBJECT_STATES
 from msgs_py.status import GripperStatus as GripperStatusRecord
+from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
@@ -135,6 +137,10 @@ class SimNode(Node):
                                  callback_group=group)
         self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
                                  callback_group=group)
+        self.pub_safety = self.create_publisher(SafetyMode, "/arm/safety_mode", LATCHED)
+        self._safety_published: str | None = None  # the stop reason last published
+        self.create_service(Trigger, "/arm/unlock_protective_stop", self._on_unlock,
+                            callback_group=group)
         self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
         self.create_service(Trigger, "/camera/trigger", self._on_trigger, callback_group=group)
 
@@ -232,6 +238,11 @@ class SimNode(Node):
             return f"reset: {len(scene.blocks)} blocks at t = {self.world.time_s:.3f} s"
         return self._answer(apply, response)
 
+    def _on_unlock(self, request, response):
+        """Like the UR dashboard's unlock: the arm follows setpoints again."""
+        return self._answer(lambda: "unlocked" if self.world.unlock_protective_stop()
+                            else "not in a protective stop", response)
+
     def _on_trigger(self, request, response):
         return self._answer(lambda: str(self._publish_camera()), response)
 
@@ -275,6 +286,7 @@ class SimNode(Node):
                     continue
                 self.world.step()
                 self._publish_due(every)
+                self._publish_safety_mode()
             except Exception as err:  # never let the loop die silently
                 if not self.context.ok():
                     break  # shutting down: publishers are gone
@@ -292,6 +304,18 @@ class SimNode(Node):
             self._publish_events()
         if every["camera"] and k % every["camera"] == 0:
             self._publish_camera()
+
+    def _publish_safety_mode(self) -> None:
+        """On a change only (latched): NORMAL, or PROTECTIVE_STOP with its reason."""
+        stopped = self.world.controller.stopped
+        if stopped == self._safety_published:
+            return
+        self._safety_published = stopped
+        mode = SafetyModeRecord("protective_stop" if stopped else "normal", stopped,
+                                self.world.time_ns)
+        self.pub_safety.publish(ic.safety_mode_to_msg(mode))
+        if stopped:
+            self.get_logger().warning(f"protective stop: {stopped}")
 
     def _publish_state(self) -> None:
         stamp = ns_to_stamp(self.world.time_ns)

@@ -478,6 +478,10 @@ def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[st
         "actions_executed": figures.get("actions_executed"),
         "plans": len(plans),
         "replans": figures.get("replans"),
+        # what went wrong on the way, as the executor counted it (faults_<kind>, ...)
+        "executor_faults": {k: v for k, v in figures.items()
+                            if k.startswith("faults") or k in ("protective_stops",
+                                                               "blocked_descents")},
         "planning_time_s": [p.planning_time_s for p in plans],
         "execution_time_s": figures.get("execution_time_s"),
         "sim_time_s": monitor.sim_time,

@@ -18,11 +18,11 @@ GEO = GripperGeometry()
 START, GOAL = Pose2D(0.60, -0.10, 0.2), Pose2D(0.80, 0.15, 0.0)
 
 
-def carry_with(world_factory, fault, watch=None):
+def carry_with(world_factory, fault, watch=None, **config):
     """Pick block 0 at START, carry it to GOAL; ``fault(world)`` when the carry begins, and
     ``watch(world)`` on every tick of the carry. Returns the world and the gripper reports
     (time, gap, requested, object) of the carry."""
-    world = world_factory([(0, START.x, START.y, START.theta)])
+    world = world_factory([(0, START.x, START.y, START.theta)], **config)
     world.step(24)
     reports, carrying = [], []
 
@@ -72,7 +72,10 @@ def test_a_slip_leaves_the_block_in_the_fingers(world_factory):
     def watch(w):
         below_tcp.append(w.tcp_pose()[0][2] - w.block_pose_3d(0)[0][2])
 
-    _, reports, _ = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.05), watch)
+    # (the block then hangs 13 mm lower and meets the table early as it is lowered: a
+    # protective stop, which the executor answers as in test_core; off here, to carry on)
+    _, reports, _ = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.05), watch,
+                               tool_force_limit=0.0)
     carry = reports[:25]
     # the block slides down between the pads (more than a centimetre), but the fingers never
     # leave its width, and it is held again

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from msgs_py import yaw_difference
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle, tool_down_quaternion
@@ -100,3 +101,43 @@ def test_block_pushed_out_of_the_workspace_is_lost(world_factory):
     world.step(round(4.0 / world.config.dt))
     assert world.monitor.blocks_lost == 1
     assert world.monitor.events[-1]["reason"] == "out of the workspace"
+
+
+def _tilt_deg(world, block: int) -> float:
+    _, quat = world.block_pose_3d(block)
+    up = np.array(world.client.getMatrixFromQuaternion(quat)).reshape(3, 3)[:, 2]
+    return math.degrees(math.acos(min(1.0, abs(float(up[2])))))
+
+
+def _finger_onto_neighbour(world_factory, **config):
+    """Go down fast to grip block 0 across x while block 1 stands 6 mm off: one finger comes
+    down on block 1's top edge (a block knocked there after the last frame)."""
+    world = world_factory([(0, 0.60, 0.0, 0.0), (1, 0.60 + 0.0508 + 0.006, 0.0, 0.0)], **config)
+    streamer = scripted.Streamer(world)
+    streamer.move_to([0.60, 0.0, scripted.SAFE_Z], yaw=0.0)
+    streamer.gripper(0.0508 + 2 * scripted.CLEARANCE)
+    streamer.move_to([0.60, 0.0, 0.012], speed=0.37)
+    return world, streamer
+
+
+def test_a_finger_landing_on_a_block_stops_the_arm_before_the_block_tips(world_factory):
+    world, _ = _finger_onto_neighbour(world_factory)
+    assert "N on the robot" in world.controller.stopped and world.protective_stops == 1
+    assert world.tcp_pose()[0][2] > 0.045  # stopped on the block's top (50.8 mm)
+    assert _tilt_deg(world, 1) < 3.0
+    # without the force limit the arm goes on down and tips the block over
+    world, _ = _finger_onto_neighbour(world_factory, tool_force_limit=0.0)
+    assert not world.controller.stopped and _tilt_deg(world, 1) > 45.0
+
+
+def test_after_an_unlock_the_arm_backs_off_but_may_not_press_again(world_factory):
+    world, streamer = _finger_onto_neighbour(world_factory)
+    assert world.unlock_protective_stop() and not world.unlock_protective_stop()
+    streamer.rejections.clear()
+    streamer.position = world.tcp_pose()[0].copy()  # from where the arm stopped ...
+    streamer.move_to([0.60, 0.0, 0.08], speed=0.1)  # ... up and off, in contact at first
+    assert not streamer.rejections and not world.controller.stopped
+    assert world.tcp_pose()[0][2] == pytest.approx(0.08, abs=1e-3)
+    streamer.move_to([0.60, 0.0, 0.012], speed=0.37)  # down onto it again: stopped again
+    assert world.controller.stopped and world.protective_stops == 2
+    assert _tilt_deg(world, 1) < 3.0

@@ -11,7 +11,7 @@ import pytest
 
 from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Push, Scene
 from msgs_py.scene import Workspace
-from msgs_py.status import GripperStatus
+from msgs_py.status import GripperStatus, SafetyMode
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore, State
 from nodes.executor.motion import ToolPose
@@ -875,3 +875,39 @@ def test_setting_apart_a_block_that_lies_under_the_other_tries_the_other_first()
     assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
     assert any("block 2 lies under another" in line for line in world.logs)
     assert core.state is State.RECOVERING, world.logs[-4:]
+
+
+def test_a_protective_stop_on_the_way_down_is_unlocked_then_the_arm_backs_up_and_goes_on():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("descend"))
+    # a finger lands on a block knocked there: the arm's controller stops it where it is
+    stopped_at = core.tcp
+    core.on_safety_mode(SafetyMode("protective_stop", "246 N on the robot"))
+    for k in range(3):  # stopped: nothing streamed (it would be refused), one unlock asked
+        out = core.tick(world.t_end + (k + 1) * DT)
+        assert out.setpoint is None and out.unlock_arm is (k == 0)
+    assert "protective stop: 246 N on the robot" in core.detail
+    core.on_safety_mode(SafetyMode("normal"))
+    world.t_end += 3 * DT
+    sent = len(world.setpoints)
+    world.run(lambda: len(world.setpoints) > sent)
+    first = world.setpoints[sent][2]
+    assert core.state is State.OBSERVING
+    assert first.distance_to(stopped_at) < 0.002  # from where the arm stopped, no jump
+    assert any("protective stop: 246 N on the robot: something is in the way below" in line
+               for line in world.logs)
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
+    assert core.state is State.DONE and core.metrics["protective_stops"] == 1
+
+
+def test_a_protective_stop_not_unlocked_is_asked_again_each_second():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.RUNNING)
+    core.on_safety_mode(SafetyMode("protective_stop", "30 N"))
+    asks = [core.tick(world.t_end + k * DT).unlock_arm for k in range(1, 152)]
+    assert sum(asks) == 3 and core.state is State.RUNNING

@@ -151,3 +151,19 @@ def test_a_stream_that_pauses_and_resumes_from_where_it_stopped_does_not_jump():
     qs = np.concatenate([first, second])
     assert off_line(qs, start, end) < 5e-4
     assert np.all(np.abs(np.diff(qs, axis=0)) <= np.asarray(rm.JOINT_VELOCITY_LIMIT) * DT * 1.01)
+
+
+def test_a_protective_stop_holds_where_measured_and_refuses_setpoints_until_unlocked():
+    ctrl = ArmController(HOME_JOINTS)
+    down = tool_down_quaternion(0.0)
+    ctrl.set_setpoint([0.7, 0.0, 0.2], down)
+    run(ctrl, 0.3)  # moving now
+    measured = ctrl.q_cmd - 0.01  # the arm trails its command
+    ctrl.protective_stop(measured, "300 N on the robot")
+    result = ctrl.set_setpoint([0.7, 0.0, 0.3], down)
+    assert not result.accepted and "protective stop (300 N on the robot)" in result.reason
+    assert np.allclose(run(ctrl, 0.5)[-1], measured)  # held where measured, not commanded
+    assert ctrl.unlock() and not ctrl.stopped and not ctrl.unlock()
+    assert ctrl.set_setpoint([0.7, 0.0, 0.3], down).accepted
+    dp, _ = pose_error(tcp_pose(run(ctrl, 5.0)[-1]), pose_matrix([0.7, 0.0, 0.3], down))
+    assert dp < 1e-6
