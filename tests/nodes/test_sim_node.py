@@ -7,7 +7,13 @@ import subprocess
 import time
 
 import pytest
-from densepack_interfaces.msg import BlockPoseArray, Disturbance, GripperStatus, SimEvents
+from densepack_interfaces.msg import (
+    BlockPoseArray,
+    Disturbance,
+    GripperStatus,
+    SafetyMode,
+    SimEvents,
+)
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
@@ -232,3 +238,31 @@ def test_gripper_status_reports_gap_request_and_object(ros):
 
     msg = ros.wait_for_message("/gripper/status", GripperStatus, at_request, timeout=20)
     assert stamp_to_ns(msg.header.stamp) > 0
+
+
+def test_the_tool_pressing_on_a_block_makes_a_protective_stop_until_unlocked(ros):
+    make_sim(ros)
+    mode = ros.wait_for_message("/arm/safety_mode", SafetyMode, qos=LATCHED, timeout=10)
+    assert mode.mode == SafetyMode.NORMAL
+    block = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray))
+    x, y = block.blocks[0].x, block.blocks[0].y
+    send(ros, "/gripper/command", Float64, Float64(data=0.0))  # closed: the tips land on top
+    pub = send(ros, "/arm/cartesian_setpoint", PoseStamped, setpoint(x, y, 0.2))
+    ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near((x, y, 0.2)), timeout=30)
+    pub.publish(setpoint(x, y, 0.02))  # 3 cm into the block
+    stop = ros.wait_for_message("/arm/safety_mode", SafetyMode, qos=LATCHED,
+                                predicate=lambda m: m.mode == SafetyMode.PROTECTIVE_STOP,
+                                timeout=30)
+    assert "N on the robot" in stop.reason
+    pub.publish(setpoint(x, y, 0.2))  # refused while stopped: the arm stays on the block
+    time.sleep(0.5)
+    tcp = ros.wait_for_message("/tcp_pose", PoseStamped, timeout=10)
+    assert tcp.pose.position.z < 0.06
+    answer = ros.call_service("/arm/unlock_protective_stop", Trigger, timeout=10)
+    assert answer.success and answer.message == "unlocked"
+    ros.wait_for_message("/arm/safety_mode", SafetyMode, qos=LATCHED,
+                         predicate=lambda m: m.mode == SafetyMode.NORMAL, timeout=10)
+    pub.publish(setpoint(x, y, 0.2))
+    ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near((x, y, 0.2)), timeout=30)
+    again = ros.call_service("/arm/unlock_protective_stop", Trigger, timeout=10)
+    assert again.message == "not in a protective stop"
