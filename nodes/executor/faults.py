@@ -54,6 +54,9 @@ UNLOAD_LIFT_M = 0.003
 BRAKE_DECEL = 5.0
 #: A protective stop not unlocked this long after asking is asked again (s).
 UNLOCK_RETRY_S = 1.0
+#: A held block that stops the arm with the tool below grasp height + this many block sizes
+#: stands on the table (on another block the tool would stand a whole block higher).
+ON_THE_TABLE = 0.75
 
 
 class FaultHandling(_Base):
@@ -167,7 +170,9 @@ class FaultHandling(_Base):
         self.commanded = self.tcp  # the arm stands here: the next script starts from it
         if self.runner is None:
             return  # nothing was moving (a hand pressed on the tool): carry on
-        if self.state is State.STOPPING:
+        if self._held_block_on_the_table():
+            self._let_go_on_the_table(why)
+        elif self.state is State.STOPPING:
             self._start_runner(park_steps(self.cfg), After.STOPPED)
         elif self.state is State.RECOVERING and self._setting_apart is not None:
             self._on_blocked_set_apart(why)
@@ -177,6 +182,28 @@ class FaultHandling(_Base):
             self._log(f"{why}: backing up and looking again")
             self._observe(self._purpose if self.state is State.OBSERVING else Purpose.RECOVERY,
                           near=True)
+
+    def _held_block_on_the_table(self) -> bool:
+        """A held block stopped the arm this low: it stands on the table. (On another block
+        the tool would stand a block higher: above grasp height + a block.)"""
+        return (self.held is not None and self.tcp is not None
+                and self.state in (State.RUNNING, State.RECOVERING)
+                and self.tcp.z < self.cfg.grasp_height + ON_THE_TABLE * self.geo.block_size)
+
+    def _let_go_on_the_table(self, why: str) -> None:
+        """The held block met the table above its place height: it slid down in the fingers
+        (a slip). Pressing on would push it up through the pads; another spot would be met
+        the same way. It stands on the table here: let go, rise, look, go on from there."""
+        assert self.held is not None
+        block = self.held.block
+        self._log(f"{why}: block {block} stands on the table (it slid down in the fingers); "
+                  "letting go here and looking again")
+        if block is not None:
+            self.expected.pop(block, None)  # where it stands now: the camera will tell
+        if self.state is State.RUNNING:
+            self._look_after_recovery = Purpose.RECOVERY
+        self._enter(State.RECOVERING)
+        self._start_runner(let_go_steps(self.geo, self.cfg, "recover"), After.RECOVERED)
 
     def _count_fault(self, kind: FaultKind) -> None:
         """One more fault, in the total and in its kind's count (``faults_<kind>``)."""

@@ -52,7 +52,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
     State.RUNNING: {
         State.OBSERVING: "action done, or a descent stopped above its end or by a protective "
                          "stop (something in the way): look",
-        State.RECOVERING: "a grasp fault: stop, let go, look",
+        State.RECOVERING: "a grasp fault: stop, let go, look; or a held block stopped the arm "
+                          "on the table (it slid in the fingers): let go there, look",
         State.STOPPING: "an error, or stop requested",
     },
     State.RECOVERING: {

@@ -911,3 +911,29 @@ def test_a_protective_stop_not_unlocked_is_asked_again_each_second():
     core.on_safety_mode(SafetyMode("protective_stop", "30 N"))
     asks = [core.tick(world.t_end + k * DT).unlock_arm for k in range(1, 152)]
     assert sum(asks) == 3 and core.state is State.RUNNING
+
+
+def test_a_held_block_that_stops_the_arm_on_the_table_is_let_go_there():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.runner is not None and core.held is not None
+              and core.runner.current_label.endswith("lower (last cm)"))
+    # it slid 10 mm down in the fingers: it meets the table 10 mm above the place height
+    block, low = core.held.block, core.tcp.with_z(CFG.grasp_height + CFG.place_drop + 0.010)
+    core.on_tcp(low)
+    core.on_safety_mode(SafetyMode("protective_stop", "35 N on the robot"))
+    core.tick(world.t_end + DT)
+    core.on_safety_mode(SafetyMode("normal"))
+    world.t_end += DT
+    world.run(lambda: core.held is None)
+    assert any("stands on the table (it slid down in the fingers)" in line for line in world.logs)
+    opened = world.setpoints[-1][2]  # where the fingers let go: where the arm stopped
+    assert opened.distance_to(low) < 0.002
+    # then a look, and the run goes on from what the camera sees (a replan)
+    world.run(lambda: world.replan_requests > 0 or core.state in (State.FAILED, State.STOPPED))
+    assert core.state is State.REPLANNING, world.logs[-5:]
+    assert not any("setting block" in line for line in world.logs)  # not carried elsewhere
+    stood = world.blocks[block]
+    assert math.hypot(stood.x - opened.x, stood.y - opened.y) < 1e-6
