@@ -833,12 +833,21 @@ def test_a_planner_restarted_during_a_replan_is_shown_a_fresh_frame():
     assert world.trigger_poses[-1].x == pytest.approx(WS.x_min - CFG.look_offset)  # look pose
 
 
-def test_a_place_stopped_above_its_spot_backs_up_looks_and_sets_the_block_down_elsewhere():
+def supervised_run_at(step_suffix: str, holding: bool = False) -> tuple[ExecutorCore, World]:
+    """The two-action plan under way with a reporting gripper, stopped at the first tick of
+    the step whose label ends with ``step_suffix`` (with a block in the fingers if
+    ``holding``)."""
     core = ExecutorCore(CFG)
     world = World(core, START)
     Gripper(world)
     core.on_plan(two_action_plan())
-    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("carry"))
+    world.run(lambda: core.runner is not None and core.runner.current_label.endswith(step_suffix)
+              and (core.held is not None or not holding))
+    return core, world
+
+
+def test_a_place_stopped_above_its_spot_backs_up_looks_and_sets_the_block_down_elsewhere():
+    core, world = supervised_run_at("carry")
     # block 2 is knocked onto block 1's goal while block 1 is carried: the tool stops 4 cm up
     world.blocks[2] = GOAL[1]
     world.floor = lambda tool: 0.04 if math.hypot(tool.x - GOAL[1].x, tool.y - GOAL[1].y) < 0.03 \
@@ -878,11 +887,7 @@ def test_setting_apart_a_block_that_lies_under_the_other_tries_the_other_first()
 
 
 def test_a_protective_stop_on_the_way_down_is_unlocked_then_the_arm_backs_up_and_goes_on():
-    core = ExecutorCore(CFG)
-    world = World(core, START)
-    Gripper(world)
-    core.on_plan(two_action_plan())
-    world.run(lambda: core.runner is not None and core.runner.current_label.endswith("descend"))
+    core, world = supervised_run_at("descend")
     # a finger lands on a block knocked there: the arm's controller stops it where it is
     stopped_at = core.tcp
     core.on_safety_mode(SafetyMode("protective_stop", "246 N on the robot"))
@@ -914,12 +919,7 @@ def test_a_protective_stop_not_unlocked_is_asked_again_each_second():
 
 
 def test_a_held_block_that_stops_the_arm_on_the_table_is_let_go_there():
-    core = ExecutorCore(CFG)
-    world = World(core, START)
-    Gripper(world)
-    core.on_plan(two_action_plan())
-    world.run(lambda: core.runner is not None and core.held is not None
-              and core.runner.current_label.endswith("lower (last cm)"))
+    core, world = supervised_run_at("lower (last cm)", holding=True)
     # it slid 10 mm down in the fingers: it meets the table 10 mm above the place height
     block, low = core.held.block, core.tcp.with_z(CFG.grasp_height + CFG.place_drop + 0.010)
     core.on_tcp(low)
