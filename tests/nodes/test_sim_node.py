@@ -136,7 +136,7 @@ def test_malformed_messages_do_not_kill_the_node(ros):
 
 
 def test_gripper_command_and_reset(ros):
-    sim = make_sim(ros)
+    make_sim(ros)
     send(ros, "/gripper/command", Float64, Float64(data=0.03))
     ros.wait_for_message("/joint_states", JointState,
                          lambda m: abs(m.position[6] + m.position[7] - 0.03) < 1e-3, timeout=20)
@@ -144,11 +144,13 @@ def test_gripper_command_and_reset(ros):
     ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near((0.7, 0.2, 0.3)), timeout=30)
     response = ros.call_service("/sim/reset", Trigger, timeout=30)
     assert response.success, response.message
+    # the clock starts again (read from the answer: with real_time_factor 0 the sim runs on
+    # as fast as it can, so its time by the next check depends on the machine's load)
+    assert float(response.message.split("t = ")[1].split(" s")[0]) < 0.1, response.message
     ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near(PARK_POSITION), timeout=10)
     events = ros.wait_for_message("/sim/events", SimEvents, qos=LATCHED, timeout=10)
     assert ic.sim_events_from_msg(events) == SimEventsRecord(stamp_ns=stamp_to_ns(
         events.header.stamp))
-    assert sim.world.time_s < 5.0
 
 
 def test_executor_status_names_the_manipulated_block(ros):
