@@ -18,6 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import yaml
 
 from msgs_py import Scene
 from nodes.planner.config import PlannerConfig
@@ -85,6 +86,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         if f.type in ("bool", bool):
             parser.add_argument(f"--{f.name.replace('_', '-')}", choices=["on", "off"],
                                 default=None, help=f"override option {f.name}")
+    parser.add_argument("--param", dest="params", action="append", default=[],
+                        type=param_value, metavar="NAME=VALUE",
+                        help="override any planner parameter (config/planner.yaml), e.g. "
+                             "improve_max_s=30; repeatable")
+
+
+def param_value(text: str) -> tuple[str, Any]:
+    """``NAME=VALUE`` for ``--param``: a PlannerConfig field and its value (YAML-typed)."""
+    name, sep, value = text.partition("=")
+    names = {f.name for f in dataclasses.fields(PlannerConfig)}
+    if not sep or name.strip() not in names:
+        raise argparse.ArgumentTypeError(
+            f"--param takes NAME=VALUE with NAME a planner parameter, got {text!r}")
+    return name.strip(), yaml.safe_load(value)
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -206,15 +221,20 @@ def sizes(opts: argparse.Namespace, kind: str) -> list[tuple[int, float]]:
 def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
     n_seeds = opts.seeds or (5 if opts.quick else 20)
     seeds = range(opts.first_seed, opts.first_seed + n_seeds)
-    overrides = {f.name: getattr(opts, f.name) == "on" for f in dataclasses.fields(PlannerConfig)
-                 if getattr(opts, f.name, None) is not None}
+    overrides = {**dict(getattr(opts, "params", [])),
+                 **{f.name: getattr(opts, f.name) == "on" for f in dataclasses.fields(PlannerConfig)
+                    if getattr(opts, f.name, None) is not None}}
     rows = []
     for variant in opts.variants:
-        config = PlannerConfig(budget_s=opts.budget, **{**VARIANTS[variant], **overrides})
+        try:
+            config = PlannerConfig(budget_s=opts.budget, **{**VARIANTS[variant], **overrides})
+        except (TypeError, ValueError) as err:
+            raise SystemExit(f"densepack-bench planner: {err}") from None
         for kind in opts.sets or SETS:
             for n, density in sizes(opts, kind):
                 row = run_set(kind, n, density, seeds, config, not opts.no_exact)
                 row["variant"] = variant
+                row["overrides"] = overrides
                 rows.append(row)
                 print(f"  {variant} {kind} n={n} density={density}: success "
                       f"{row['success_rate']:.2f}, median {row['time_median_s']:.2f} s, "

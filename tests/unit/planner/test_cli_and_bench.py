@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+import pytest
+
 from msgs_py import load_plan, save_scene
 from nodes.common.paths import config_path
 from nodes.common.scenes import random_scene
@@ -60,3 +62,20 @@ def test_bench_rows_carry_the_design_figures():
                 "actions_over_lower_bound_median"):
         assert key in row
     assert row["success_rate"] == 1.0 and row["actions_over_lower_bound_median"] >= 1.0
+
+
+def test_bench_param_overrides_any_parameter_and_names_a_bad_one(capsys):
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--seeds", type=int)
+    bench.add_arguments(parser)
+    base = ["--set", "random", "--n", "4", "--density", "low", "--seeds", "1", "--no-exact"]
+    opts = parser.parse_args([*base, "--param", "improve_max_s=0", "--param", "a3=2.5"])
+    row = bench.run(opts)[0]
+    assert row["overrides"] == {"improve_max_s": 0, "a3": 2.5}
+    assert row["success_rate"] == 1.0
+    with pytest.raises(SystemExit):
+        parser.parse_args([*base, "--param", "improve_max=3"])
+    assert "NAME a planner parameter, got 'improve_max=3'" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match="improve_max_s"):
+        bench.run(parser.parse_args([*base, "--param", "improve_max_s=-1"]))
