@@ -200,11 +200,24 @@ class RosHarness:
     def shutdown(self) -> None:
         self._stop.set()
         self._thread.join(timeout=10.0)
-        self.executor.shutdown()  # waits for callbacks still running in worker threads
+        self.executor.shutdown()
+        self._wait_for_callbacks(timeout=10.0)
         for node in reversed(self._nodes):
             node.destroy_node()
         self._nodes.clear()
         rclpy.try_shutdown(context=self.context)
+
+    def _wait_for_callbacks(self, timeout: float) -> None:
+        """Let callbacks still running in the executor's worker threads finish before their
+        nodes are destroyed. Jazzy's ``Executor.shutdown`` does not wait for them (its wait
+        is skipped once the shutdown flag is set), and a callback that outlives its node
+        fails inside rclpy ("cannot use Destroyable because destruction was requested").
+        The executor keeps the tasks it submitted in ``_futures``; without it, nothing to
+        wait for."""
+        deadline = time.monotonic() + timeout
+        for task in list(getattr(self.executor, "_futures", ())):
+            while not task.done() and time.monotonic() < deadline:
+                time.sleep(0.01)
 
     def __enter__(self) -> RosHarness:
         return self

@@ -30,7 +30,8 @@ from nodes.planner.planner import plan_scene
 
 COLUMNS = ["set", "n_blocks", "density", "variant", "seeds", "success_rate", "time_median_s",
            "time_p90_s", "actions_median", "lower_bound_median",
-           "actions_minus_lower_bound_median", "actions_over_lower_bound_median",
+           "actions_minus_lower_bound_median", "scenes_within_lower_bound_plus_1",
+           "actions_over_lower_bound_median",
            "exact_median", "actions_minus_exact_median"]
 
 DENSITIES = {"low": 0.05, "high": 0.20, "cramped": 0.30}
@@ -173,11 +174,14 @@ class Tally:
             "pushes_median": median(self.pushes), "clears_median": median(self.clears),
             "lower_bound_median": median(list(self.bounds.values())),
             "actions_minus_lower_bound_median": median(gap),
+            "scenes_within_lower_bound_plus_1": sum(g <= 1 for g in gap),
             "actions_over_lower_bound_median": median(ratio),
             "exact_median": median(list(self.exact.values())),
             "exact_solved": len(self.exact),
             "actions_minus_exact_median": median(to_exact),
             "failures": self.failures,
+            "per_seed": {str(s): {"actions": self.actions.get(s), "lower_bound": b,
+                                  "exact": self.exact.get(s)} for s, b in self.bounds.items()},
         }
 
 

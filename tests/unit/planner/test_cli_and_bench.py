@@ -62,6 +62,11 @@ def test_bench_rows_carry_the_design_figures():
                 "actions_over_lower_bound_median"):
         assert key in row
     assert row["success_rate"] == 1.0 and row["actions_over_lower_bound_median"] >= 1.0
+    per_seed = row["per_seed"]
+    assert sorted(per_seed) == ["0", "1"]
+    assert all(s["actions"] >= s["lower_bound"] for s in per_seed.values())
+    assert row["scenes_within_lower_bound_plus_1"] == sum(
+        s["actions"] - s["lower_bound"] <= 1 for s in per_seed.values())
 
 
 def test_bench_param_overrides_any_parameter_and_names_a_bad_one(capsys):
