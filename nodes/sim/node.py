@@ -69,6 +69,14 @@ CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 SERVICE_TIMEOUT_S = 60.0
 #: Longest the loop sleeps between two looks at its command queue (s).
 MAX_IDLE_WAIT_S = 0.005
+#: A loop that steps without waiting (free-running, lockstep, behind the real-time floor)
+#: sleeps GIL_SHARE_S after every GIL_SHARE_EVERY_S of stepping. A PyBullet step holds the GIL,
+#: so without it the node's own callbacks and the process's other threads get the GIL back
+#: only at the interpreter's 5 ms forced switches, once per blocking call they make: a thread
+#: that makes many (rclpy's logger looks up its caller's source file, stat by stat) took
+#: minutes for what takes milliseconds (the sim-node tests: 290 s for one).
+GIL_SHARE_EVERY_S = 0.002
+GIL_SHARE_S = 0.0002
 
 
 #: gOBJ code of fingers that stopped on something while opening: logged with what they touch.
@@ -275,15 +283,21 @@ class SimNode(Node):
                        if self.camera_config.rate_hz > 0 else 0),
         }
         self.pacer.restart(self.world.time_s)
+        shared = time.monotonic()  # when the loop last let go of the GIL
         while not self._stop.is_set() and self.context.ok():
             try:
                 while self._commands:
                     self._commands.popleft()()
-                wait = self.pacer.wait_before_step(self.world.time_s, time.monotonic())
+                now = time.monotonic()
+                wait = self.pacer.wait_before_step(self.world.time_s, now)
                 if wait > 0.0:
                     self._wake.wait(min(wait, MAX_IDLE_WAIT_S))
                     self._wake.clear()
+                    shared = time.monotonic()
                     continue
+                if now - shared > GIL_SHARE_EVERY_S:
+                    time.sleep(GIL_SHARE_S)
+                    shared = time.monotonic()
                 self.world.step()
                 self._publish_due(every)
                 self._publish_safety_mode()

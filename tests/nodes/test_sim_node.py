@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import time
 
@@ -268,3 +269,14 @@ def test_the_tool_pressing_on_a_block_makes_a_protective_stop_until_unlocked(ros
     ros.wait_for_message("/tcp_pose", PoseStamped, tcp_near((x, y, 0.2)), timeout=30)
     again = ros.call_service("/arm/unlock_protective_stop", Trigger, timeout=10)
     assert again.message == "not in a protective stop"
+
+
+def test_a_free_running_sim_leaves_other_threads_the_gil(ros):
+    # each os.stat lets go of the GIL and needs it back; while the sim's loop held it through
+    # back-to-back physics steps, every one waited for a 5 ms forced switch (2000: >= 10 s)
+    make_sim(ros)
+    ros.wait_for_message("/clock", Clock, timeout=10)
+    start = time.monotonic()
+    for _ in range(2000):
+        os.stat(__file__)
+    assert time.monotonic() - start < 2.0
