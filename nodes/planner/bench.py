@@ -18,9 +18,9 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import yaml
 
 from msgs_py import Scene
+from nodes.planner.cli import name_value
 from nodes.planner.config import PlannerConfig
 from nodes.planner.context import PlanContext
 from nodes.planner.exact import MAX_BLOCKS, ExactLimit, exact_plan
@@ -95,12 +95,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def param_value(text: str) -> tuple[str, Any]:
     """``NAME=VALUE`` for ``--param``: a PlannerConfig field and its value (YAML-typed)."""
-    name, sep, value = text.partition("=")
-    names = {f.name for f in dataclasses.fields(PlannerConfig)}
-    if not sep or name.strip() not in names:
+    name, value = name_value(text)
+    if "=" not in text or name not in {f.name for f in dataclasses.fields(PlannerConfig)}:
         raise argparse.ArgumentTypeError(
             f"--param takes NAME=VALUE with NAME a planner parameter, got {text!r}")
-    return name.strip(), yaml.safe_load(value)
+    return name, value
 
 
 def percentile(values: list[float], q: float) -> float:

@@ -51,6 +51,12 @@ def load_planner_configs(path: str | Path | None, overrides: dict[str, Any]
     return config, unlabeled
 
 
+def name_value(text: str) -> tuple[str, Any]:
+    """``NAME=VALUE`` from the command line: the name, and the value as YAML reads it."""
+    name, _, value = text.partition("=")
+    return name.strip(), yaml.safe_load(value)
+
+
 def load_config(path: str | Path | None, overrides: dict[str, Any]) -> PlannerConfig:
     """``PlannerConfig`` from a ROS params file plus overrides (``load_planner_configs``)."""
     return load_planner_configs(path, overrides)[0]
@@ -86,9 +92,7 @@ def main(args: Sequence[str] | None = None) -> int:
     opts = _parser().parse_args(args)
     overrides = {k: getattr(opts, k) for k in ("seed", "budget_s", "n_samples", "eps", "a1",
                                                  "a2", "a3")}
-    for item in opts.set:
-        name, _, value = item.partition("=")
-        overrides[name.strip()] = yaml.safe_load(value)
+    overrides.update(name_value(item) for item in opts.set)
     for name, flag in (("unlabeled.method", opts.method), ("unlabeled.b", opts.b)):
         if flag is not None:  # a flag given overrides --set; one not given leaves it be
             overrides[name] = flag

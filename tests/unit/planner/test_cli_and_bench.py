@@ -49,12 +49,18 @@ def test_set_reaches_every_parameter_group_and_refuses_unknown_names(tmp_path, c
     assert "unknown parameter(s) ['n_sample']" in capsys.readouterr().err
 
 
-def test_bench_rows_carry_the_design_figures():
+def bench_parser() -> argparse.ArgumentParser:
+    """The planner suite's options as ``densepack-bench planner`` parses them."""
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--seeds", type=int)
     bench.add_arguments(parser)
-    opts = parser.parse_args(["--set", "random", "--n", "4", "--density", "low", "--seeds", "2"])
+    return parser
+
+
+def test_bench_rows_carry_the_design_figures():
+    opts = bench_parser().parse_args(["--set", "random", "--n", "4", "--density", "low",
+                                      "--seeds", "2"])
     rows = bench.run(opts)
     assert len(rows) == 1
     row = rows[0]
@@ -70,10 +76,7 @@ def test_bench_rows_carry_the_design_figures():
 
 
 def test_bench_param_overrides_any_parameter_and_names_a_bad_one(capsys):
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--seeds", type=int)
-    bench.add_arguments(parser)
+    parser = bench_parser()
     base = ["--set", "random", "--n", "4", "--density", "low", "--seeds", "1", "--no-exact"]
     opts = parser.parse_args([*base, "--param", "improve_max_s=0", "--param", "a3=2.5"])
     row = bench.run(opts)[0]
