@@ -24,6 +24,7 @@ or ``colcon build``). ``import msgs_py`` does not import it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
@@ -50,14 +51,14 @@ from msgs_py.sim import (
     SimFault,
 )
 from msgs_py.status import (
+    ARM_STATES,
     EXECUTOR_STATES,
     GRIPPER_OBJECT_STATES,
     PLANNER_STATES,
-    SAFETY_MODES,
+    ArmStatus,
     ExecutorStatus,
     GripperStatus,
     PlannerStatus,
-    SafetyMode,
 )
 from msgs_py.tasks import (
     PLAN_ERRORS,
@@ -94,7 +95,7 @@ PLANNER_STATE_CODES = _constants(ifc.PlannerStatus, "STATE_", PLANNER_STATES)
 PLAN_ERROR_CODES = _constants(PlanScene.Response, "ERROR_", PLAN_ERRORS)
 OUTCOME_CODES = _constants(Rearrange.Result, "OUTCOME_", REARRANGE_OUTCOMES)
 GRIPPER_OBJECT_CODES = _constants(ifc.GripperStatus, "OBJECT_", GRIPPER_OBJECT_STATES)
-SAFETY_MODE_CODES = _constants(ifc.SafetyMode, "", SAFETY_MODES)
+ARM_STATE_CODES = _constants(ifc.ArmStatus, "STATE_", ARM_STATES)
 SIM_EVENT_CODES = _constants(ifc.SimEvent, "TYPE_", SIM_EVENT_TYPES)
 SIM_FAULT_CODES = _constants(ifc.SimFault, "KIND_", SIM_FAULT_KINDS)
 ACTION_TYPE_CODES = {"pick_place": ifc.PlanAction.PICK_PLACE, "push": ifc.PlanAction.PUSH}
@@ -636,16 +637,29 @@ def gripper_status_from_msg(msg: ifc.GripperStatus) -> GripperStatus:
                          stamp_to_ns(msg.header.stamp))
 
 
-def safety_mode_to_msg(mode: SafetyMode) -> ifc.SafetyMode:
-    msg = ifc.SafetyMode(mode=_code_to("mode", SAFETY_MODE_CODES, mode.mode),
-                         reason=mode.reason)
-    msg.header.stamp = ns_to_stamp(mode.stamp_ns, "stamp_ns")
+def arm_status_to_msg(status: ArmStatus) -> ifc.ArmStatus:
+    msg = ifc.ArmStatus(
+        state=_code_to("state", ARM_STATE_CODES, status.state),
+        reason=_text("reason", status.reason),
+        speed_scaling=_float("speed_scaling", status.speed_scaling),
+        program_running=bool(status.program_running),
+        safety_mode=_int("safety_mode", status.safety_mode, 0, 255),
+        robot_mode=_int("robot_mode", status.robot_mode, -128, 127),
+        stream_time=math.nan if status.stream_time is None else float(status.stream_time),
+        rejected_setpoints=_int("rejected_setpoints", status.rejected_setpoints, 0, UINT32_MAX))
+    msg.header.stamp = ns_to_stamp(status.stamp_ns, "stamp_ns")
     return msg
 
 
-def safety_mode_from_msg(msg: ifc.SafetyMode) -> SafetyMode:
-    return SafetyMode(_code_from("mode", SAFETY_MODE_CODES, msg.mode), str(msg.reason),
-                      stamp_to_ns(msg.header.stamp))
+def arm_status_from_msg(msg: ifc.ArmStatus) -> ArmStatus:
+    stream = float(msg.stream_time)
+    if math.isinf(stream):
+        raise MessageError("stream_time", stream, "must be finite, or NaN for no stream")
+    return ArmStatus(
+        _code_from("state", ARM_STATE_CODES, msg.state), str(msg.reason),
+        _float("speed_scaling", msg.speed_scaling), bool(msg.program_running),
+        int(msg.safety_mode), int(msg.robot_mode), None if math.isnan(stream) else stream,
+        int(msg.rejected_setpoints), stamp_to_ns(msg.header.stamp))
 
 
 def sim_fault_to_msg(fault: SimFault) -> ifc.SimFault:

@@ -34,9 +34,13 @@ GRIPPER_OBJECT_STATES = (
     "at_position",  # reached the requested gap: no object
 )
 
-SAFETY_MODES = (
-    "normal",
-    "protective_stop",  # the arm holds where it stopped until unlocked
+#: What the arm node says of the arm (``nodes.arm.readiness`` says when each holds).
+ARM_STATES = (
+    "ready",  # setpoints are followed
+    "paused",  # the speed slider is at 0: setpoints are taken, the arm waits on its path
+    "protective_stop",  # stopped by the robot's safety system until unlocked
+    "stopped",  # cannot move until someone acts (program, safeguard, e-stop, power)
+    "no_joint_states",  # joint states missing, incomplete or stale
 )
 
 PLANNER_STATES = (
@@ -113,17 +117,28 @@ class GripperStatus:
 
 
 @dataclass(frozen=True, slots=True)
-class SafetyMode:
-    """The arm's safety mode (``SAFETY_MODES``) since ``stamp_ns``, and why it stopped."""
+class ArmStatus:
+    """What the arm node says of the arm at ``stamp_ns`` (``ARM_STATES``), and why."""
 
-    mode: str
+    state: str
     reason: str = ""
+    speed_scaling: float = 1.0  #: the speed slider (fraction)
+    program_running: bool = False
+    safety_mode: int = 0  #: ur_dashboard_msgs/SafetyMode code, 0: none yet
+    robot_mode: int = -128  #: ur_dashboard_msgs/RobotMode code, -128: none yet
+    stream_time: float | None = None  #: stamp (s) of the stream the arm is commanded at
+    rejected_setpoints: int = 0
     stamp_ns: int = 0
 
     def __post_init__(self) -> None:
-        if self.mode not in SAFETY_MODES:
-            raise MessageError("mode", self.mode, f"expected one of {list(SAFETY_MODES)}")
+        if self.state not in ARM_STATES:
+            raise MessageError("state", self.state, f"expected one of {list(ARM_STATES)}")
+        finite_float("speed_scaling", self.speed_scaling)
 
     @property
-    def stopped(self) -> bool:
-        return self.mode == "protective_stop"
+    def ready(self) -> bool:
+        return self.state == "ready"
+
+    @property
+    def protective_stop(self) -> bool:
+        return self.state == "protective_stop"

@@ -25,6 +25,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
+from nodes.robot import gripper_2f85 as g85  # noqa: E402
+from nodes.robot import ur10e  # noqa: E402
 from nodes.sim import robot_model as rm  # noqa: E402
 
 N_TAGS = 50
@@ -102,9 +104,9 @@ ARM_LINKS = tuple(LINK_INERTIA_BOX)
 
 def _com_in_link_frame(i: int) -> np.ndarray:
     """UR gives centres of mass in DH frame i; URDF link i sits at F_{i-1} Rz(q_i)."""
-    ca, sa = math.cos(rm.DH_ALPHA[i]), math.sin(rm.DH_ALPHA[i])
+    ca, sa = math.cos(ur10e.DH_ALPHA[i]), math.sin(ur10e.DH_ALPHA[i])
     rot_x = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
-    return np.array([rm.DH_A[i], 0.0, rm.DH_D[i]]) + rot_x @ np.array(rm.LINK_COM_DH[i])
+    return np.array([ur10e.DH_A[i], 0.0, ur10e.DH_D[i]]) + rot_x @ np.array(ur10e.LINK_COM_DH[i])
 
 
 def _link(name: str, body: str) -> str:
@@ -126,19 +128,19 @@ def arm_urdf() -> str:
              _link("base_link", _inertial(4.0, (0, 0, 0.03), (0.19, 0.19, 0.06))
                    + "".join(LINK_SHAPES["base_link"]))]
     parent = "base_link"
-    for i, (joint, link) in enumerate(zip(rm.ARM_JOINTS, ARM_LINKS, strict=True)):
-        xyz = (0, 0, 0) if i == 0 else (rm.DH_A[i - 1], 0, rm.DH_D[i - 1])
-        rpy = (0, 0, 0) if i == 0 else (rm.DH_ALPHA[i - 1], 0, 0)
-        limit = (f'<limit lower="{-rm.JOINT_LIMIT:.6g}" upper="{rm.JOINT_LIMIT:.6g}" '
-                 f'effort="{rm.JOINT_TORQUE_LIMIT[i]:.6g}" '
-                 f'velocity="{rm.JOINT_VELOCITY_LIMIT[i]:.6g}"/>'
+    for i, (joint, link) in enumerate(zip(ur10e.ARM_JOINTS, ARM_LINKS, strict=True)):
+        xyz = (0, 0, 0) if i == 0 else (ur10e.DH_A[i - 1], 0, ur10e.DH_D[i - 1])
+        rpy = (0, 0, 0) if i == 0 else (ur10e.DH_ALPHA[i - 1], 0, 0)
+        limit = (f'<limit lower="{-ur10e.JOINT_LIMIT:.6g}" upper="{ur10e.JOINT_LIMIT:.6g}" '
+                 f'effort="{ur10e.JOINT_TORQUE_LIMIT[i]:.6g}" '
+                 f'velocity="{ur10e.JOINT_VELOCITY_LIMIT[i]:.6g}"/>'
                  '<dynamics damping="0.0" friction="0.0"/>')
         parts.append(_joint(joint, "revolute", parent, link, xyz, rpy, (0, 0, 1), limit))
-        body = _inertial(rm.LINK_MASS[i], _com_in_link_frame(i), LINK_INERTIA_BOX[link])
+        body = _inertial(ur10e.LINK_MASS[i], _com_in_link_frame(i), LINK_INERTIA_BOX[link])
         parts.append(_link(link, body + "".join(LINK_SHAPES[link])))
         parent = link
     parts.append(_joint("flange_joint", "fixed", parent, "tool0",
-                        (rm.DH_A[5], 0, rm.DH_D[5]), (rm.DH_ALPHA[5], 0, 0)))
+                        (ur10e.DH_A[5], 0, ur10e.DH_D[5]), (ur10e.DH_ALPHA[5], 0, 0)))
     parts.append(_link("tool0", _inertial(0.001, (0, 0, 0), (0.01, 0.01, 0.01))))
     parts.append(gripper_urdf())
     parts.append("</robot>\n")
@@ -148,27 +150,27 @@ def arm_urdf() -> str:
 def gripper_urdf() -> str:
     """2F-85-class gripper in the flange frame (z out of the flange, x = closing axis)."""
     coupling = 0.011
-    body_h = rm.TCP_OFFSET - rm.FINGER_LENGTH - coupling
-    body_mass = rm.GRIPPER_MASS - 2 * rm.FINGER_MASS
+    body_h = g85.TCP_OFFSET - g85.FINGER_LENGTH - coupling
+    body_mass = g85.GRIPPER_MASS - 2 * g85.FINGER_MASS
     body = (_inertial(body_mass, (0, 0, coupling + body_h / 2), (0.12, 0.06, body_h))
             + _shape("cylinder", (0.0375, coupling), (0, 0, coupling / 2), color="dark")
             + _shape("box", (0.125, 0.060, body_h), (0, 0, coupling + body_h / 2), color="dark"))
     parts = [_joint("gripper_mount", "fixed", "tool0", "gripper_body", (0, 0, 0), (0, 0, 0)),
              _link("gripper_body", body)]
-    finger_box = (rm.FINGER_THICKNESS, rm.FINGER_WIDTH, rm.FINGER_LENGTH)
+    finger_box = (rm.FINGER_THICKNESS, rm.FINGER_WIDTH, g85.FINGER_LENGTH)
     for joint, side in zip(rm.FINGER_JOINTS, (-1, 1), strict=True):
         link = joint.replace("_joint", "")
-        centre = (side * rm.FINGER_THICKNESS / 2, 0, rm.FINGER_LENGTH / 2)
+        centre = (side * rm.FINGER_THICKNESS / 2, 0, g85.FINGER_LENGTH / 2)
         limit = (f'<limit lower="0" upper="{rm.GRIPPER_STROKE / 2:.6g}" '
-                 f'effort="{rm.GRIP_FORCE_RANGE[1]:.6g}" '
-                 f'velocity="{rm.CLOSING_SPEED_RANGE[1] / 2:.6g}"/>')
+                 f'effort="{g85.GRIP_FORCE_RANGE[1]:.6g}" '
+                 f'velocity="{g85.CLOSING_SPEED_RANGE[1] / 2:.6g}"/>')
         parts.append(_joint(joint, "prismatic", "gripper_body", link,
-                            (0, 0, rm.TCP_OFFSET - rm.FINGER_LENGTH), (0, 0, 0), (side, 0, 0),
+                            (0, 0, g85.TCP_OFFSET - g85.FINGER_LENGTH), (0, 0, 0), (side, 0, 0),
                             limit))
-        parts.append(_link(link, _inertial(rm.FINGER_MASS, centre, finger_box)
+        parts.append(_link(link, _inertial(g85.FINGER_MASS, centre, finger_box)
                            + _shape("box", finger_box, centre, color="dark")))
     parts.append(_joint("tcp_joint", "fixed", "gripper_body", "tcp",
-                        (0, 0, rm.TCP_OFFSET), (0, 0, 0)))
+                        (0, 0, g85.TCP_OFFSET), (0, 0, 0)))
     parts.append(_link("tcp", _inertial(0.001, (0, 0, 0), (0.01, 0.01, 0.01))))
     return "".join(parts)
 

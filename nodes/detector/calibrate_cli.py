@@ -44,6 +44,7 @@ from nodes.common.params import declare_config, describe_config, param
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA, RELIABLE
 from nodes.common.runner import split_ros_args
+from nodes.common.standard_msgs import pose_stamped_msg
 from nodes.common.transforms import tool_down_quaternion
 from nodes.detector.arm_calibration import ArmCalibration, ArmRoutineConfig
 from nodes.detector.calibration import CalibrationResult, calibrate_camera, calibrate_views
@@ -53,7 +54,6 @@ from nodes.detector.pipeline import BlockDetector, to_gray
 from nodes.detector.sync import StampPairer
 from nodes.detector.tags import REFINEMENTS, FinderSettings, TagFinder
 from nodes.executor.node import FINGER_JOINTS, tool_pose_from_msg
-from nodes.sim.messages import pose_stamped_msg
 
 MODES = ("scene", "arm")
 

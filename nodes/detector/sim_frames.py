@@ -29,8 +29,8 @@ def sim_frames(seeds, density: float, noise: float | None, ideal_camera: bool = 
     camera of config/sim.yaml, or with ``ideal_camera`` the same one as an ideal pinhole
     (no lens distortion, blur or noise)."""
     from nodes.common.transforms import pose_matrix
+    from nodes.robot.kinematics import solve_tcp_ik
     from nodes.sim.config import load_sim_configs
-    from nodes.sim.kinematics import solve_tcp_ik
     from nodes.sim.world import SimWorld
 
     sim_config, camera_config, _ = load_sim_configs()
@@ -58,7 +58,7 @@ def sim_frames(seeds, density: float, noise: float | None, ideal_camera: bool = 
                 target = truth[int(rng.choice(sorted(truth)))]
                 ik = solve_tcp_ik(pose_matrix([target.x, target.y, ARM_HOVER_Z],
                                               tool_down_quaternion(target.theta)),
-                                  world.controller.q_cmd)
+                                  world.arm_q())
                 if not ik.ok:
                     continue
                 for joint, q in zip(world.arm_joints, ik.q, strict=True):

@@ -20,6 +20,7 @@ from typing import Any
 
 from msgs_py import PickPlace, Pose2D
 from msgs_py.cell import GripperGeometry
+from nodes.bench.sim_arm import SimArm
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.primitives import GRASP_SYMMETRY, action_steps
 from nodes.executor.sim_play import play
@@ -76,7 +77,7 @@ def run_scene(blocks: int, density: float, seed: int) -> tuple[list[Placed], str
     if outcome.plan is None:
         return [], f"no plan: {outcome.error}"
     sim, camera, _ = load_sim_configs()
-    world = SimWorld(dataclasses.replace(sim, seed=seed), camera.model(), scene)
+    world = SimArm(SimWorld(dataclasses.replace(sim, seed=seed), camera.model(), scene))
     cfg, geo = ExecutorConfig(), GripperGeometry.from_params(outcome.plan.params)
     placed: list[Placed] = []
     try:

@@ -1,6 +1,7 @@
-"""Play executor step scripts on a SimWorld, no ROS: 50 Hz ticks, stamped setpoints, the
-gripper's commands and reports, as the executor node and the sim node exchange them (for the
-sim tests and ``densepack-bench placement``)."""
+"""Play executor step scripts on a simulated cell, no ROS: 50 Hz ticks, stamped setpoints, the
+gripper's commands and reports, as the executor node exchanges them with the arm and gripper
+nodes (here ``SimArm``: the arm node's logic in front of a ``SimWorld``), for the sim tests and
+``densepack-bench placement``."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from nodes.executor.motion import ToolPose
 from nodes.executor.steps import Step, StepRunner
 
 if TYPE_CHECKING:
-    from nodes.sim.world import SimWorld
+    from nodes.bench.sim_arm import SimArm as SimWorld
 
 
 def tool_pose(world: SimWorld) -> ToolPose:

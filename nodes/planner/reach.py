@@ -2,7 +2,7 @@
 
 Every point a plan puts the tool centre point (TCP) at (over and at a grasped block, behind a
 pushed block at the start and the end of the push, the straight carries between them) is
-checked against the arm's own kinematic model, ``nodes.sim.kinematics.solve_tcp_ik`` (the
+checked against the arm's own kinematic model, ``nodes.robot.kinematics.solve_tcp_ik`` (the
 UR10e's DH parameters, closed-form IK through ``ur_analytic_ik``, branches with the elbow or
 a wrist near the table discarded). It is imported as is: a pure numpy module (no PyBullet) and
 the very model the arm controller and the sim's scene check use, so the planner accepts
@@ -28,7 +28,7 @@ import numpy as np
 from msgs_py import MessageError
 from msgs_py.cell import ACTION_HEIGHTS
 from nodes.common.transforms import tool_down_matrix
-from nodes.sim.kinematics import solve_tcp_ik
+from nodes.robot.kinematics import solve_tcp_ik
 
 #: Kept from the boundary of the reachable annulus (m): a fully stretched or folded arm is
 #: near a singularity and slow to control.

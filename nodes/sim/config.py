@@ -8,8 +8,9 @@ from pathlib import Path
 
 from nodes.common.params import configs_from_parameters, param, read_params_file
 from nodes.common.paths import config_path
-from nodes.sim import robot_model as rm
+from nodes.robot import gripper_2f85 as g85
 from nodes.sim.camera import SimCamera
+from nodes.sim.joint_control import MOTION_CONTROLLERS
 
 #: Park pose of the TCP (world, tool pointing down, closing axis along x): outside the camera's
 #: view of the workspace; the executor parks here before asking for a fresh detection.
@@ -29,34 +30,38 @@ class SimConfig:
     real_time_factor: float = param(
         1.0, "pacing floor: simulated time never runs slower than this many seconds per wall "
         "second (0 = no floor)")
-    lockstep_lead_s: float = param(
-        0.06, "while a setpoint stream comes, the sim runs as fast as it can but at most this "
-        "far (simulated time) ahead of the newest setpoint's stamp, so it never outruns the "
-        "executor; 0 = pace by real_time_factor alone", unit="s")
-    servo_delay_s: float = param(
-        0.08, "streamed setpoints are played back this far behind their stamps, interpolated "
-        "(like a UR servoj lookahead); must exceed lockstep_lead_s so playback never runs "
-        "dry", unit="s")
+    lockstep_margin_s: float = param(
+        0.02, "while motion commands come, the sim runs as fast as it can but stays this far "
+        "(simulated time) behind the end of the newest one (a trajectory's last point, which "
+        "the arm node keeps within its horizon of the executor's newest setpoint), so it never "
+        "outruns the nodes that command it; 0 = pace by real_time_factor alone", unit="s")
+    motion_controller: str = param(
+        "scaled_joint_trajectory_controller", "the active motion controller, as "
+        "ur_robot_driver's initial_joint_controller: scaled_joint_trajectory_controller "
+        "(JointTrajectory) or forward_position_controller (Float64MultiArray)")
+    speed_slider: float = param(
+        1.0, "the teach pendant's speed slider at start (fraction 0-1; /sim/speed_slider "
+        "changes it; the driver reports it in percent)")
+    protective_stop_unlock_after_s: float = param(
+        5.0, "the dashboard refuses to unlock a protective stop sooner than this after it, as "
+        "a UR does", unit="s")
     clock_rate_hz: float = param(100.0, "/clock publish rate in simulated time", unit="Hz")
     state_rate_hz: float = param(
-        50.0, "/joint_states and /tcp_pose rate in simulated time", unit="Hz")
+        50.0, "rate of the drivers' state topics (/joint_states, /gripper/joint_states, the "
+        "TCP pose and speed scaling) in simulated time", unit="Hz")
     ground_truth_rate_hz: float = param(
         10.0, "/sim/ground_truth rate in simulated time", unit="Hz")
     events_rate_hz: float = param(2.0, "/sim/events rate in simulated time", unit="Hz")
     contact_check_rate_hz: float = param(
         60.0, "how often the event monitor inspects contacts (simulated time)", unit="Hz")
-    grip_force: float = param(rm.GRIP_FORCE_DEFAULT, "finger force limit (2F-85: 20-235 N)",
+    grip_force: float = param(g85.GRIP_FORCE_DEFAULT, "finger force limit (2F-85: 20-235 N)",
                               unit="N")
-    gripper_speed: float = param(rm.CLOSING_SPEED_DEFAULT,
+    gripper_speed: float = param(g85.CLOSING_SPEED_DEFAULT,
                                  "gap closing/opening speed (2F-85: 0.02-0.15 m/s)", unit="m/s")
-    min_tcp_z: float = param(0.0, "safety plane: setpoints with the TCP below it are rejected",
-                             unit="m")
-    speed_scale: float = param(1.0, "fraction of the UR10e joint velocity limits the "
-                                    "controller uses (0-1]")
     tool_force_limit: float = param(
         20.0, "the arm stops (a protective stop) when the force on the robot from blocks and "
-        "table exceeds this; it follows setpoints again after /arm/unlock_protective_stop "
-        "(0 = off)", unit="N")
+        "table exceeds this; it moves again once the dashboard's unlock_protective_stop and "
+        "play have been called (0 = off)", unit="N")
     home_joints: tuple = param(list(HOME_JOINTS), "arm joints at start and after /sim/reset "
                                "(the park pose)", unit="rad")
     park_position: tuple = param(list(PARK_POSITION), "park TCP position for the executor "
@@ -71,7 +76,7 @@ class SimConfig:
         0.15, "relative standard deviation of the blocks' friction coefficients (wood on wood "
         "or MDF: 0.25-0.5)")
     gripper_latency_s: float = param(
-        0.02, "time from a /gripper/command to the gripper acting on it (2F-85 on Modbus RTU: "
+        0.02, "time from a knuckle command to the gripper acting on it (2F-85 on Modbus RTU: "
         "a request/response cycle of a few ms plus the driver's polling)", unit="s")
 
     def __post_init__(self) -> None:
@@ -81,19 +86,23 @@ class SimConfig:
             raise ValueError(f"physics_rate_hz must be >= 240, got {self.physics_rate_hz}")
         if self.real_time_factor < 0.0:
             raise ValueError(f"real_time_factor must be >= 0, got {self.real_time_factor}")
-        if self.lockstep_lead_s < 0.0 or self.servo_delay_s < 0.0:
-            raise ValueError("lockstep_lead_s and servo_delay_s must be >= 0")
-        if self.lockstep_lead_s > 0.0 and not self.servo_delay_s > self.lockstep_lead_s:
-            raise ValueError(f"servo_delay_s ({self.servo_delay_s}) must exceed "
-                             f"lockstep_lead_s ({self.lockstep_lead_s})")
+        if self.lockstep_margin_s < 0.0:
+            raise ValueError(f"lockstep_margin_s must be >= 0, got {self.lockstep_margin_s}")
+        if self.motion_controller not in MOTION_CONTROLLERS:
+            raise ValueError(f"motion_controller must be one of {list(MOTION_CONTROLLERS)}, "
+                             f"got '{self.motion_controller}'")
+        if not 0.0 <= self.speed_slider <= 1.0:
+            raise ValueError(f"speed_slider must be in [0, 1], got {self.speed_slider}")
+        if self.protective_stop_unlock_after_s < 0.0:
+            raise ValueError("protective_stop_unlock_after_s must be >= 0")
         for name in ("clock_rate_hz", "state_rate_hz", "ground_truth_rate_hz", "events_rate_hz",
                      "contact_check_rate_hz"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"{name} must be > 0")
-        lo, hi = rm.GRIP_FORCE_RANGE
+        lo, hi = g85.GRIP_FORCE_RANGE
         if not lo <= self.grip_force <= hi:
             raise ValueError(f"grip_force must be in [{lo}, {hi}] N, got {self.grip_force}")
-        lo, hi = rm.CLOSING_SPEED_RANGE
+        lo, hi = g85.CLOSING_SPEED_RANGE
         if not lo <= self.gripper_speed <= hi:
             raise ValueError(f"gripper_speed must be in [{lo}, {hi}] m/s")
         if len(self.home_joints) != 6 or not all(math.isfinite(v) for v in self.home_joints):

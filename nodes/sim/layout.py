@@ -16,9 +16,9 @@ from msgs_py import Scene, load_scene
 from nodes.common.paths import config_path
 from nodes.common.scenes import random_scene
 from nodes.common.transforms import tool_down_matrix
+from nodes.robot.kinematics import solve_tcp_ik
 from nodes.sim import robot_model as rm
 from nodes.sim.camera import SimCamera
-from nodes.sim.kinematics import solve_tcp_ik
 
 #: Random scenes are centred under the camera and shaped like the default workspace
 #: (0.5 m along x by 0.7 m along y), so they stay in reach and in the camera's view.

@@ -1,15 +1,21 @@
 """``densepack-sim``: the simulated UR10e cell as a ROS 2 node.
 
-One thread (``sim-loop``) owns the PyBullet world: it steps physics, runs the arm
-controller, renders, and publishes. ROS callbacks never touch the world; they validate their
-message and queue a command that the loop applies between two physics steps (services wait
-for the loop's answer). So rendering pauses physics, and nothing is half-applied: a
-malformed message is refused in its callback with a warning.
+The sim stands in for the cell's drivers, not for densepack: it speaks ur_robot_driver's,
+the Robotiq driver's and a camera driver's names and types (``msgs_py.drivers``), and what only
+a simulator has (clock, ground truth, events, faults, reset, render requests) lives under
+``/sim/``. There is no IK here: the arm node (``densepack-arm``) turns setpoints into joint
+trajectories, as it does for a real UR.
 
-Pacing (``Pacer``): while the executor streams setpoints, the sim runs as fast as the
-machine allows but never more than ``lockstep_lead_s`` of simulated time ahead of the
-newest setpoint (lockstep: the executor is never outrun, however loaded the machine);
-when nothing streams (the cell waits for a camera frame to be judged, or for a plan), time
+One thread (``sim-loop``) owns the PyBullet world: it steps physics, runs the UR's motion
+controller, renders, and publishes. ROS callbacks never touch the world; they queue a command
+that the loop applies between two physics steps (services wait for the loop's answer). So
+rendering pauses physics, and nothing is half-applied: a malformed or refused command is
+logged, as the driver logs it, and changes nothing.
+
+Pacing (``Pacer``): while motion commands come, the sim runs as fast as the machine allows
+but stays ``lockstep_margin_s`` of simulated time behind the end of the newest one (lockstep:
+the arm node, and the executor it follows, are never outrun, however loaded the machine);
+when none is in force (the cell waits for a camera frame to be judged, or for a plan), time
 passes at ``real_time_factor``, as it would for a real robot waiting. Rendering a frame is
 not charged to simulated time (a real camera's exposure is milliseconds).
 """
@@ -25,14 +31,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from densepack_interfaces.msg import (
-    BlockPoseArray,
-    Disturbance,
-    GripperStatus,
-    SafetyMode,
-    SimEvents,
-    SimFault,
-)
+from densepack_interfaces.msg import BlockPoseArray, Disturbance, SimEvents, SimFault
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -40,28 +39,29 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
-from std_msgs.msg import Float64
+from std_msgs.msg import Bool, Float64, Float64MultiArray, Header
 from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
+from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 from visualization_msgs.msg import MarkerArray
 
-from msgs_py import BlockSet, MessageError
+from msgs_py import BlockSet, MessageError, drivers
 from msgs_py import interface_codecs as ic
 from msgs_py.image_codecs import (
     array_to_compressed_image,
     array_to_image,
     intrinsics_to_camera_info,
 )
-from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp, stamp_to_ns
+from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp
 from msgs_py.sim import SimEvents as SimEventsRecord
 from msgs_py.status import GRIPPER_OBJECT_STATES
-from msgs_py.status import GripperStatus as GripperStatusRecord
-from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
+from nodes.common.standard_msgs import joint_state_msg, pose_stamped_msg, trajectory_values
+from nodes.robot import gripper_2f85 as g85
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.layout import load_sim_scene, scene_problems
-from nodes.sim.messages import joint_state_msg, pose_from_msg, pose_stamped_msg
 from nodes.sim.pacing import Pacer
 from nodes.sim.world import SimWorld
 
@@ -96,7 +96,8 @@ class SimNode(Node):
         self._commands: collections.deque[Callable[[], None]] = collections.deque()
         self._stop = threading.Event()
         self._wake = threading.Event()  # a command came: the loop may step again
-        self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_lead_s)
+        self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_margin_s)
+        self._driver_published: tuple | None = None  # (safety, robot mode, running) last sent
         self._blackout_until_ns = 0
         self._stopped_opening_since: float | None = None  # sim s; -1: logged
         self._make_interfaces()
@@ -117,24 +118,44 @@ class SimNode(Node):
         return scene
 
     def _make_interfaces(self) -> None:
+        """The drivers' names and types (msgs_py.drivers), and the sim's own under /sim/."""
         group = ReentrantCallbackGroup()
         self.pub_clock = self.create_publisher(Clock, "/clock", CLOCK_QOS)
-        self.pub_joints = self.create_publisher(JointState, "/joint_states", RELIABLE)
-        self.pub_tcp = self.create_publisher(PoseStamped, "/tcp_pose", RELIABLE)
-        self.pub_gripper = self.create_publisher(GripperStatus, "/gripper/status", RELIABLE)
-        self.pub_truth = self.create_publisher(BlockPoseArray, "/sim/ground_truth", RELIABLE)
-        self.pub_truth_markers = self.create_publisher(MarkerArray, "/sim/ground_truth/markers",
-                                                       RELIABLE)
-        self.pub_events = self.create_publisher(SimEvents, "/sim/events", LATCHED)
+        # ur_robot_driver
+        self.pub_joints = self.create_publisher(JointState, drivers.JOINT_STATES, RELIABLE)
+        self.pub_tcp = self.create_publisher(PoseStamped, drivers.TCP_POSE_TOPIC, RELIABLE)
+        self.pub_speed = self.create_publisher(Float64, drivers.SPEED_SCALING_TOPIC, RELIABLE)
+        self.pub_safety = self.create_publisher(SafetyMode, drivers.SAFETY_MODE_TOPIC, LATCHED)
+        self.pub_robot_mode = self.create_publisher(RobotMode, drivers.ROBOT_MODE_TOPIC, LATCHED)
+        self.pub_running = self.create_publisher(Bool, drivers.PROGRAM_RUNNING_TOPIC, LATCHED)
+        self.create_subscription(JointTrajectory, drivers.TRAJECTORY_TOPIC, self._on_trajectory,
+                                 RELIABLE, callback_group=group)
+        self.create_subscription(Float64MultiArray, drivers.FORWARD_POSITION_TOPIC,
+                                 self._on_positions, RELIABLE, callback_group=group)
+        for call in drivers.DASHBOARD_TRIGGERS:
+            self.create_service(Trigger, drivers.dashboard_service(call),
+                                lambda req, resp, call=call: self._on_dashboard(call, resp),
+                                callback_group=group)
+        # the Robotiq driver, in its namespace
+        self.pub_knuckle = self.create_publisher(JointState, drivers.GRIPPER_JOINT_STATES,
+                                                 RELIABLE)
+        self.create_subscription(Float64MultiArray, drivers.GRIPPER_COMMAND_TOPIC,
+                                 self._on_knuckle, RELIABLE, callback_group=group)
+        # the camera: a driver's topics (frames at camera.rate_hz, and one per render request)
         self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
         self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
         # image_transport's compressed sibling (JPEG, ~115 kB): what viewers, best-effort
         # subscribers and bags take. Encoded only while someone listens.
         self.pub_compressed = self.create_publisher(CompressedImage,
                                                     "/camera/image_raw/compressed", CAMERA)
-        self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
+        # what only a simulator has
+        self.pub_truth = self.create_publisher(BlockPoseArray, "/sim/ground_truth", RELIABLE)
+        self.pub_truth_markers = self.create_publisher(MarkerArray, "/sim/ground_truth/markers",
+                                                       RELIABLE)
+        self.pub_events = self.create_publisher(SimEvents, "/sim/events", LATCHED)
+        self.create_subscription(Header, "/sim/render_request", self._on_render_request,
                                  RELIABLE, callback_group=group)
-        self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
+        self.create_subscription(Float64, "/sim/speed_slider", self._on_speed_slider, RELIABLE,
                                  callback_group=group)
         # Volatile on purpose: it matches the executor whether it latches its status or not.
         self.create_subscription(ExecutorStatusMsg, "/executor/status", self._on_status,
@@ -145,12 +166,7 @@ class SimNode(Node):
                                  callback_group=group)
         self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
                                  callback_group=group)
-        self.pub_safety = self.create_publisher(SafetyMode, "/arm/safety_mode", LATCHED)
-        self._safety_published: str | None = None  # the stop reason last published
-        self.create_service(Trigger, "/arm/unlock_protective_stop", self._on_unlock,
-                            callback_group=group)
         self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
-        self.create_service(Trigger, "/camera/trigger", self._on_trigger, callback_group=group)
 
     # --- callbacks (any executor thread): validate, then queue ----------------------------------
     def _queue(self, command: Callable[[], None]) -> None:
@@ -158,30 +174,52 @@ class SimNode(Node):
         self._commands.append(command)
         self._wake.set()
 
-    def _on_setpoint(self, msg: PoseStamped) -> None:
-        try:
-            position, quat, frame = pose_from_msg(msg)
-        except (MessageError, ValueError) as err:
-            self.get_logger().warning(f"/arm/cartesian_setpoint refused: {err}")
-            return
-        stamp = stamp_to_ns(msg.header.stamp) * 1e-9 or None
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        """scaled_joint_trajectory_controller: checked as the controller checks it; a refused
+        one is logged as an error, as the controller logs it."""
+        names, start_s, points = trajectory_values(msg)
 
         def apply() -> None:
-            if stamp is not None:
-                self.pacer.on_setpoint(stamp)
-            result = self.world.set_setpoint(position, quat, frame, stamp)
-            if not result.accepted:
-                self.get_logger().warning(
-                    f"setpoint {[round(v, 4) for v in position]} rejected, arm holds: "
-                    f"{result.reason}", throttle_duration_sec=1.0)
+            error = self.world.command_trajectory(names, start_s, points)
+            if error:
+                self.get_logger().error(f"{drivers.TRAJECTORY_TOPIC}: {error}",
+                                        throttle_duration_sec=1.0)
+                return
+            self.pacer.on_command(self.world.commanded_until())
         self._queue(apply)
 
-    def _on_gripper(self, msg: Float64) -> None:
-        gap = float(msg.data)
-        if not math.isfinite(gap):
-            self.get_logger().warning(f"/gripper/command refused: {gap} is not finite")
+    def _on_positions(self, msg: Float64MultiArray) -> None:
+        values = [float(v) for v in msg.data]
+
+        def apply() -> None:
+            error = self.world.command_positions(values)
+            if error:
+                self.get_logger().error(f"{drivers.FORWARD_POSITION_TOPIC}: {error}",
+                                        throttle_duration_sec=1.0)
+                return
+            self.pacer.on_command(self.world.commanded_until())
+        self._queue(apply)
+
+    def _on_knuckle(self, msg: Float64MultiArray) -> None:
+        """The Robotiq position controller: one value, the knuckle joint (rad)."""
+        values = [float(v) for v in msg.data]
+        if len(values) != 1 or not math.isfinite(values[0]):
+            self.get_logger().error(
+                f"{drivers.GRIPPER_COMMAND_TOPIC}: expected one finite value for "
+                f"{g85.KNUCKLE_JOINT}, got {values}")
             return
-        self._queue(lambda: self.world.set_gripper(gap))
+        self._queue(lambda: self.world.set_knuckle(values[0]))
+
+    def _on_speed_slider(self, msg: Float64) -> None:
+        fraction = float(msg.data)
+        if not (math.isfinite(fraction) and 0.0 <= fraction <= 1.0):
+            self.get_logger().warning(f"/sim/speed_slider refused: {fraction} is not in [0, 1]")
+            return
+        self._queue(lambda: self.world.set_speed_slider(fraction))
+
+    def _on_render_request(self, msg: Header) -> None:
+        """A frame now (sim only: a real camera streams); the frame's stamp says when."""
+        self._queue(self._publish_camera)
 
     def _on_status(self, msg: ExecutorStatusMsg) -> None:
         try:
@@ -246,13 +284,18 @@ class SimNode(Node):
             return f"reset: {len(scene.blocks)} blocks at t = {self.world.time_s:.3f} s"
         return self._answer(apply, response)
 
-    def _on_unlock(self, request, response):
-        """Like the UR dashboard's unlock: the arm follows setpoints again."""
-        return self._answer(lambda: "unlocked" if self.world.unlock_protective_stop()
-                            else "not in a protective stop", response)
-
-    def _on_trigger(self, request, response):
-        return self._answer(lambda: str(self._publish_camera()), response)
+    def _on_dashboard(self, call: str, response):
+        """A dashboard call, answered in the dashboard server's words."""
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._queue(lambda: future.set_result(self.world.dashboard(call)))
+        try:
+            answer = future.result(timeout=SERVICE_TIMEOUT_S)
+            response.success, response.message = answer.success, answer.message
+        except concurrent.futures.TimeoutError:
+            response.success, response.message = False, "the sim did not answer"
+        if response.success:
+            self.get_logger().info(f"dashboard {call}: {response.message}")
+        return response
 
     def _answer(self, fn: Callable[[], str], response):
         future: concurrent.futures.Future = concurrent.futures.Future()
@@ -300,7 +343,7 @@ class SimNode(Node):
                     shared = time.monotonic()
                 self.world.step()
                 self._publish_due(every)
-                self._publish_safety_mode()
+                self._publish_driver_state()
             except Exception as err:  # never let the loop die silently
                 if not self.context.ok():
                     break  # shutting down: publishers are gone
@@ -319,28 +362,32 @@ class SimNode(Node):
         if every["camera"] and k % every["camera"] == 0:
             self._publish_camera()
 
-    def _publish_safety_mode(self) -> None:
-        """On a change only (latched): NORMAL, or PROTECTIVE_STOP with its reason."""
-        stopped = self.world.controller.stopped
-        if stopped == self._safety_published:
+    def _publish_driver_state(self) -> None:
+        """Safety mode, robot mode and program running, latched, on a change (as ur_robot_driver's
+        io_and_status_controller publishes them)."""
+        state = self.world.robot_state
+        now = (state.safety_mode, state.robot_mode, state.program_running)
+        if now == self._driver_published:
             return
-        self._safety_published = stopped
-        mode = SafetyModeRecord("protective_stop" if stopped else "normal", stopped,
-                                self.world.time_ns)
-        self.pub_safety.publish(ic.safety_mode_to_msg(mode))
-        if stopped:
-            self.get_logger().warning(f"protective stop: {stopped}")
+        if self._driver_published is not None and state.stop_reason and \
+                now[0] != self._driver_published[0]:
+            self.get_logger().warning(f"protective stop: {state.stop_reason}")
+        self._driver_published = now
+        self.pub_safety.publish(SafetyMode(mode=state.safety_mode))
+        self.pub_robot_mode.publish(RobotMode(mode=state.robot_mode))
+        self.pub_running.publish(Bool(data=state.program_running))
 
     def _publish_state(self) -> None:
         stamp = ns_to_stamp(self.world.time_ns)
         names, q, v = self.world.joint_state()
         self.pub_joints.publish(joint_state_msg(stamp, names, q, v))
         position, quat = self.world.tcp_pose()
-        self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat))
+        self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat, drivers.BASE_FRAME))
+        self.pub_speed.publish(Float64(data=100.0 * self.world.robot_state.speed_scaling))
+        knuckle, rate = self.world.knuckle()
+        self.pub_knuckle.publish(joint_state_msg(stamp, [g85.KNUCKLE_JOINT], [knuckle], [rate]))
         gap, requested, code = self.world.gripper_status()
         self._log_stalled_opening(code == STOPPED_OPENING, gap, requested)
-        self.pub_gripper.publish(ic.gripper_status_to_msg(GripperStatusRecord(
-            gap, requested, GRIPPER_OBJECT_STATES[code], self.world.time_ns)))
 
     def _log_stalled_opening(self, stopped: bool, gap: float, requested: float) -> None:
         """Fingers that stay stopped while opening for STALL_LOG_S: log once what they touch
@@ -400,22 +447,29 @@ def _period_steps(physics_hz: float, rate_hz: float) -> int:
 
 
 TOPICS = """
-subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world), /gripper/command
-  (std_msgs/Float64, gap m), /executor/status (densepack_interfaces/ExecutorStatus),
-  /sim/disturb (densepack_interfaces/Disturbance), /sim/camera_blackout (std_msgs/Float64, s:
-  drop camera frames, fault injection)
-publishes:  /clock, /joint_states, /tcp_pose, /gripper/status (densepack_interfaces/
-  GripperStatus), /camera/image_raw (rgb8), /camera/camera_info, /sim/ground_truth
-  (densepack_interfaces/BlockPoseArray; MarkerArray on /sim/ground_truth/markers),
-  /sim/events (densepack_interfaces/SimEvents, latched)
-services:   /sim/reset, /camera/trigger (std_srvs/Trigger)
+A stand-in for ur_robot_driver, the Robotiq 2F-85 driver and a camera driver (their names
+and types; docs/contracts.md), plus what only a simulator has, under /sim/:
+subscribes: /scaled_joint_trajectory_controller/joint_trajectory (trajectory_msgs/
+  JointTrajectory), /forward_position_controller/commands (std_msgs/Float64MultiArray; the
+  active one of the two is motion_controller), /gripper/robotiq_position_controller/commands
+  (std_msgs/Float64MultiArray, knuckle rad), /sim/render_request (std_msgs/Header: a frame
+  now), /sim/speed_slider (std_msgs/Float64, fraction), /sim/fault, /sim/disturb,
+  /sim/camera_blackout, /executor/status (who handles which block, for the event monitor)
+publishes:  /clock, /joint_states (arm, driver order), /gripper/joint_states (knuckle),
+  /tcp_pose_broadcaster/pose (frame base), /speed_scaling_state_broadcaster/speed_scaling
+  (percent), /io_and_status_controller/{safety_mode, robot_mode, robot_program_running}
+  (ur_dashboard_msgs, std_msgs/Bool; latched), /camera/image_raw, /camera/camera_info,
+  /camera/image_raw/compressed, /sim/ground_truth (+ /markers), /sim/events (latched)
+services:   /dashboard_client/{unlock_protective_stop, close_safety_popup, stop, play, pause,
+  power_on, power_off, brake_release}, /sim/reset (std_srvs/Trigger)
 """
 
 SPEC = NodeSpec(
     "sim",
     SimNode,
-    "The simulated UR10e cell (PyBullet): arm controller with IK, 2F-85 gripper, tagged "
-    "blocks, overhead camera, event monitor.",
+    "The simulated UR10e cell (PyBullet) behind the drivers' interfaces: the UR's motion "
+    "controllers, safety system and dashboard, the 2F-85's knuckle joint, tagged blocks, an "
+    "overhead camera, ground truth and an event monitor.",
     configs=SIM_PARAMETERS,
     topics=TOPICS,
     # Callbacks only validate and queue for the sim loop; a service waits for the loop's

@@ -19,54 +19,9 @@ from msgs_py.cell import (  # noqa: F401 (re-exported for the sim and the asset 
     TAG_SIZE,
 )
 
-# --- UR10e (Universal Robots, "DH parameters for calculations of kinematics and dynamics") ----
-#: Standard DH parameters of the UR10e, joints 1..6 (m, rad).
-DH_D = (0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655)
-DH_A = (0.0, -0.6127, -0.57155, 0.0, 0.0, 0.0)
-DH_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
-
-#: Link masses (kg) and centres of mass (m, in DH frame i) from the same UR table.
-LINK_MASS = (7.369, 13.051, 3.989, 2.1, 1.98, 0.615)
-LINK_COM_DH = (
-    (0.021, 0.000, 0.027),
-    (0.38, 0.000, 0.158),
-    (0.24, 0.000, 0.068),
-    (0.000, 0.007, 0.018),
-    (0.000, 0.007, 0.018),
-    (0.0, 0.0, -0.026),
-)
-
-ARM_JOINTS = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
-)
-#: UR10e data sheet: every joint +-360 degrees.
-JOINT_LIMIT = 2.0 * math.pi
-#: UR10e data sheet: base and shoulder 120 deg/s, elbow and wrists 180 deg/s.
-JOINT_VELOCITY_LIMIT = tuple(math.radians(v) for v in (120, 120, 180, 180, 180, 180))
-#: Joint sizes 4, 4, 3, 2, 2, 2 (UR joint catalogue): peak torques 330, 330, 150, 56, 56, 56 N m.
-JOINT_TORQUE_LIMIT = (330.0, 330.0, 150.0, 56.0, 56.0, 56.0)
-#: UR publishes no joint acceleration limits, only peak torques (the torque limits above bound
-#: what PyBullet's motors reach). These let the executor's Cartesian profiles (1 m/s, 4 m/s^2
-#: peak, cosine ramps) through over the workspace: their 99.5th-percentile demand is about
-#: 10, 8, 13, 9, 0, 18 rad/s^2; where a stream asks for more, the controller slows playback.
-JOINT_ACCELERATION_LIMIT = (12.0, 12.0, 15.0, 20.0, 20.0, 20.0)
-
-# --- Robotiq 2F-85 (data sheet / instruction manual, section "Specifications") ---------------
-GRIP_FORCE_RANGE = (20.0, 235.0)  #: N, data sheet
-GRIP_FORCE_DEFAULT = 40.0  #: N, a gentle wood-block grip (well inside the range)
-CLOSING_SPEED_RANGE = (0.020, 0.150)  #: m/s, data sheet
-CLOSING_SPEED_DEFAULT = 0.150  #: m/s of the gap: the data sheet's fastest setting
-GRIPPER_MASS = 0.925  #: kg, data sheet (with fingers)
-#: Flange to fingertips (coupling 11 mm + 163 mm gripper with fingers closed), m.
-TCP_OFFSET = 0.174
-FINGER_LENGTH = 0.055  #: m, visible finger below the gripper body
-PAD_HEIGHT = 0.038  #: m, rubber pad height (fingertip up), data sheet drawing
-FINGER_MASS = 0.05  #: kg each (the rest of the 0.925 kg is in the body)
+#: The sim's two pad joints (prismatic, each the pad's distance from the TCP, m), coupled like
+#: the 2F-85's linkage; the driver-facing knuckle joint is derived from them
+#: (``nodes.robot.gripper_2f85``).
 FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
 
 # --- Blocks, table, friction -----------------------------------------------------------------

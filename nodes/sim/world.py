@@ -16,13 +16,21 @@ import pybullet
 from pybullet_utils import bullet_client
 
 from msgs_py import BlockPose, Scene
+from msgs_py.drivers import SAFETY_PROTECTIVE_STOP
 from msgs_py.sim import SimFault
 from nodes.common.paths import asset_path
+from nodes.robot import gripper_2f85 as g85
+from nodes.robot import ur10e
 from nodes.sim import robot_model as rm
 from nodes.sim.camera import SimCamera, render_rgb
 from nodes.sim.config import SimConfig
-from nodes.sim.controller import ArmController, SetpointResult, clip_gripper_gap
 from nodes.sim.events import ContactKind, EventMonitor
+from nodes.sim.joint_control import (
+    FORWARD_POSITION_CONTROLLER,
+    ForwardPositionController,
+    TrajectoryController,
+)
+from nodes.sim.robot_state import DashboardAnswer, RobotState
 
 TABLE_RGBA = (0.62, 0.50, 0.38, 1.0)  # MDF
 GRAVITY = 9.81
@@ -49,6 +57,12 @@ FINGER_COUPLING_FORCE = 500.0
 #: the fingers' combined speed exceeds this (m/s).
 GRIPPER_AT_POSITION = 0.0005
 GRIPPER_MOVING_SPEED = 0.002
+#: The order ur_robot_driver's joint_state_broadcaster lists the arm joints in (not the
+#: kinematic order, not alphabetical): a reader must go by name.
+DRIVER_JOINT_STATE_ORDER = ("shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+                            "wrist_2_joint", "wrist_3_joint", "shoulder_pan_joint")
+#: A forward position command counts as streaming for this long after it came (s, pacing).
+FORWARD_COMMAND_S = 0.04
 
 
 @dataclass
@@ -81,8 +95,12 @@ class SimWorld:
             pybullet.GEOM_BOX, halfExtents=[rm.BLOCK_SIZE / 2] * 3)
         self._make_table()
         self._make_robot()
-        self.controller = ArmController(config.home_joints, config.min_tcp_z,
-                                        config.speed_scale, config.servo_delay_s)
+        self.robot_state = RobotState(config.speed_slider, config.protective_stop_unlock_after_s)
+        self.motion: TrajectoryController | ForwardPositionController = (
+            ForwardPositionController(config.home_joints)
+            if config.motion_controller == FORWARD_POSITION_CONTROLLER
+            else TrajectoryController(config.home_joints))
+        self._can_move = True
         self.block_bodies: dict[int, int] = {}
         self.scene = scene
         self.monitor: EventMonitor | None = None
@@ -110,7 +128,7 @@ class SimWorld:
             info = c.getJointInfo(self.robot, j)
             by_name[info[1].decode()] = j
             self.link_index[info[12].decode()] = j
-        self.arm_joints = [by_name[n] for n in rm.ARM_JOINTS]
+        self.arm_joints = [by_name[n] for n in ur10e.ARM_JOINTS]
         self.finger_joints = [by_name[n] for n in rm.FINGER_JOINTS]
         self.tcp_link = self.link_index["tcp"]
         self.finger_links = set(self.finger_joints)
@@ -177,7 +195,9 @@ class SimWorld:
         open_half = rm.GRIPPER_STROKE / 2
         for j in self.finger_joints:
             c.resetJointState(self.robot, j, open_half, 0.0)
-        self.controller.reset(self.config.home_joints)
+        self.robot_state.reset(0.0)
+        self.motion.hold(self.config.home_joints)
+        self._can_move = True
         self.gripper_gap = rm.GRIPPER_STROKE
         self._apply_gripper()
         self._gripper_queue: list[tuple[float, float]] = []  # (time due, gap) on the way
@@ -209,16 +229,70 @@ class SimWorld:
     def time_ns(self) -> int:
         return round(self.step_count * 1e9 / self.config.physics_rate_hz)
 
-    # --- commands -------------------------------------------------------------------------------
-    def set_setpoint(self, position, quat_xyzw, frame_id: str = "world",
-                     stamp_s: float | None = None) -> SetpointResult:
-        """A TCP setpoint for the arm controller, stamped ``stamp_s`` (simulated s)."""
-        return self.controller.set_setpoint(position, quat_xyzw, frame_id, stamp_s)
+    # --- commands (what ur_robot_driver and the Robotiq driver accept) -----------------------
+    def command_trajectory(self, names, start_s: float, points) -> str:
+        """A JointTrajectory for ``scaled_joint_trajectory_controller`` (decoded: joint names,
+        stamp s, (time_from_start, positions, velocities, accelerations, effort) per point);
+        returns why it is refused ("" = accepted)."""
+        if not isinstance(self.motion, TrajectoryController):
+            return f"{self.motion.name} is the active controller, not {TrajectoryController.name}"
+        if not self.robot_state.can_move:
+            return "the robot program is not running: the trajectory is not executed"
+        return self.motion.receive(names, start_s, points, self.time_s)
+
+    def command_positions(self, values) -> str:
+        """A Float64MultiArray for ``forward_position_controller``; why it is refused."""
+        if not isinstance(self.motion, ForwardPositionController):
+            return (f"{self.motion.name} is the active controller, not "
+                    f"{ForwardPositionController.name}")
+        if not self.robot_state.can_move:
+            return "the robot program is not running: the command is not executed"
+        return self.motion.receive(values, self.time_s)
+
+    def commanded_until(self) -> float | None:
+        """Until when (simulated s) the motion commands received say what to do: the end of
+        the trajectory playing, or a while after the newest forward command (pacing)."""
+        if isinstance(self.motion, TrajectoryController):
+            return self.motion.ends_at(self.time_s)
+        at = self.motion.last_command_at
+        return None if at is None else at + FORWARD_COMMAND_S
+
+    def dashboard(self, command: str) -> DashboardAnswer:
+        """A dashboard call (``unlock_protective_stop``, ``stop``, ``play`` ...)."""
+        answer = self.robot_state.dashboard(command, self.time_s)
+        if command == "unlock_protective_stop" and answer.success:
+            # The arm still presses on what stopped it, so until the force has stayed below
+            # half the limit for BACK_OFF_S the guard stops it only if it presses harder than
+            # it did: the arm may back off first (the way out a UR operator takes).
+            limit = self.config.tool_force_limit
+            self._backing_off = float(np.linalg.norm(self.tool_force())) + limit
+            self._off_since = None
+        return answer
+
+    def set_speed_slider(self, fraction: float) -> None:
+        """The teach pendant's speed slider (fraction)."""
+        self.robot_state.set_speed_slider(fraction)
+
+    def set_knuckle(self, knuckle: float) -> float:
+        """A Robotiq knuckle position command (rad); returns the pad gap it asks for (m)."""
+        if not math.isfinite(knuckle):
+            raise ValueError(f"knuckle command {knuckle} is not finite")
+        return self.set_gripper(g85.knuckle_to_gap(knuckle))
+
+    def knuckle(self) -> tuple[float, float]:
+        """The knuckle joint's (position rad, velocity rad/s), as the Robotiq driver
+        publishes it (it never fills the velocity: the sim reports it anyway, 0 at rest)."""
+        states = self.client.getJointStates(self.robot, self.finger_joints)
+        gap = float(states[0][0] + states[1][0])
+        gap_rate = float(states[0][1] + states[1][1])
+        return g85.gap_to_knuckle(gap), -gap_rate * g85.KNUCKLE_CLOSED / rm.GRIPPER_STROKE
 
     def set_gripper(self, gap: float) -> float:
         """Command the gap between the pads (m, clipped to the stroke); the gripper acts on it
         ``gripper_latency_s`` later (its fieldbus cycle). Returns the clipped gap."""
-        gap = clip_gripper_gap(gap)
+        if not math.isfinite(gap):
+            raise ValueError(f"gripper command {gap} is not finite")
+        gap = min(max(float(gap), 0.0), rm.GRIPPER_STROKE)
         if self.config.gripper_latency_s <= 0.0:
             self.gripper_gap = gap
             self._apply_gripper()
@@ -393,20 +467,38 @@ class SimWorld:
             if self._pad_friction_restore is not None and self.time_s >= self._slip_until:
                 self._set_pad_friction(self._pad_friction_restore)
                 self._pad_friction_restore = None
-            q, v = self.controller.step(self.config.dt, self.time_s + self.config.dt)
+            q, v = self._motor_command()
             c.setJointMotorControlArray(
                 self.robot, self.arm_joints, pybullet.POSITION_CONTROL, targetPositions=q,
-                targetVelocities=v, forces=rm.JOINT_TORQUE_LIMIT)
+                targetVelocities=v, forces=ur10e.JOINT_TORQUE_LIMIT)
             if self.disturbances:
                 self._push_disturbed()
             if self.armed is not None and self.step_count % self._contact_every == 0:
                 self._check_armed()
             c.stepSimulation()
             self.step_count += 1
-            if self.config.tool_force_limit > 0.0 and not self.controller.stopped:
+            if (self.config.tool_force_limit > 0.0
+                    and self.robot_state.safety_mode != SAFETY_PROTECTIVE_STOP):
                 self._guard_tool_force()
             if self.step_count % self._contact_every == 0:
                 self._check_events()
+
+    def _motor_command(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint targets for this step: the active motion controller's while the robot may
+        move; where the arm stood when it stopped (a protective stop, the program stopped)
+        otherwise. A stop holds where the arm is measured, not where it was commanded: that
+        may lie further into what it hit."""
+        state = self.robot_state
+        state.step(self.time_s)
+        if not state.can_move:
+            if self._can_move:
+                self.motion.hold(self.arm_q())
+                self._can_move = False
+            return self.motion.q_cmd, np.zeros(6)
+        self._can_move = True
+        q_measured, v_measured = self.arm_state()
+        return self.motion.update(self.time_s + self.config.dt, self.config.dt,
+                                  state.speed_scaling, q_measured, v_measured)
 
     def tool_force(self) -> np.ndarray:
         """The net force (N, world) blocks and table exert on the robot: what the UR10e's
@@ -439,20 +531,8 @@ class SimWorld:
             tcp = self.tcp_pose()[0]
             why = (f"{force:.0f} N on the robot at TCP ({tcp[0]:.3f}, {tcp[1]:.3f}, "
                    f"{tcp[2]:.3f}), limit {limit:.0f} N")
-            self.controller.protective_stop(self.arm_q(), why)
+            self.robot_state.protective_stop(self.time_s, why)
             self.protective_stops += 1
-
-    def unlock_protective_stop(self) -> bool:
-        """Leave a protective stop (False: there was none). The arm still presses on what
-        stopped it, so until the force has stayed below half the limit for BACK_OFF_S the
-        guard stops it only if it presses harder than it did: the arm may back off first
-        (the way out a UR operator takes after an unlock)."""
-        if not self.controller.unlock():
-            return False
-        limit = self.config.tool_force_limit
-        self._backing_off = float(np.linalg.norm(self.tool_force())) + limit
-        self._off_since = None
-        return True
 
     def _push_disturbed(self) -> None:
         c = self.client
@@ -493,13 +573,18 @@ class SimWorld:
 
     # --- state ----------------------------------------------------------------------------------
     def joint_state(self) -> tuple[list[str], np.ndarray, np.ndarray]:
-        joints = self.arm_joints + self.finger_joints
-        states = self.client.getJointStates(self.robot, joints)
-        names = list(rm.ARM_JOINTS) + list(rm.FINGER_JOINTS)
-        return (names, np.array([s[0] for s in states]), np.array([s[1] for s in states]))
+        """The arm's joints as ur_robot_driver publishes them: in its broadcaster's order."""
+        q, v = self.arm_state()
+        order = [ur10e.ARM_JOINTS.index(name) for name in DRIVER_JOINT_STATE_ORDER]
+        return list(DRIVER_JOINT_STATE_ORDER), q[order], v[order]
+
+    def arm_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Measured arm joint positions and velocities, kinematic order (rad, rad/s)."""
+        states = self.client.getJointStates(self.robot, self.arm_joints)
+        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
     def arm_q(self) -> np.ndarray:
-        return np.array([s[0] for s in self.client.getJointStates(self.robot, self.arm_joints)])
+        return self.arm_state()[0]
 
     def gap(self) -> float:
         """Measured gap between the pads (m)."""

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 SUITES = {
-    "sim": "nodes.sim.bench",
+    "sim": "nodes.bench.sim",
     "perception": "nodes.detector.bench",
     "planner": "nodes.planner.bench",
     "cell": "nodes.tools.cell_bench",

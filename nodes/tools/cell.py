@@ -1,11 +1,17 @@
 """``densepack-cell``: our launch file.
 
-Starts the node set described by a cell file (``config/cell.yaml``): each node as its own
-process by default (``python -m <module> --ros-args --params-file ...``, extra ROS
-arguments passed through), or all in this process on one MultiThreadedExecutor with
-``--in-process``. Every log line is prefixed with its node's name. Ctrl-C or SIGTERM shuts
-everything down cleanly; the launcher exits non-zero when a node dies. Nodes whose code
-is not in this installation are reported as missing and the rest start anyway.
+Starts the node set described by a cell file: each node as its own process by default
+(``python -m <module> --ros-args --params-file ... -r from:=to``, extra ROS arguments passed
+through), or all in this process on one MultiThreadedExecutor with ``--in-process``. Every log
+line is prefixed with its node's name. Ctrl-C or SIGTERM shuts everything down cleanly; the
+launcher exits non-zero when a node dies. Nodes whose code is not in this installation are
+reported as missing and the rest start anyway.
+
+Profiles: ``--profile sim`` (the default, ``config/cell.yaml``) is the simulated cell;
+``--profile real`` (``config/real/cell.yaml``) starts densepack's nodes and not the sim,
+against ur_robot_driver, the Robotiq driver and a camera driver, with the remappings and
+parameters of that file. ``--list --json`` prints the commands (what the ROS launch file in
+``ros_ws`` starts for users of an apt ROS install).
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import json
 import os
 import signal
 import subprocess
@@ -35,10 +42,14 @@ NODE_MODULES = {
     "detector": "nodes.detector.node",
     "planner": "nodes.planner.node",
     "executor": "nodes.executor.node",
+    "arm": "nodes.arm.node",
+    "gripper": "nodes.gripper.node",
     "goal": "nodes.tools.goal",
 }
 
 SHUTDOWN_GRACE_S = 10.0
+#: Profile name -> its cell file (under config/).
+PROFILES = {"sim": "cell.yaml", "real": "real/cell.yaml"}
 
 
 @dataclass(frozen=True)
@@ -47,6 +58,7 @@ class NodeLaunch:
     module: str
     params_files: tuple[Path, ...] = ()
     parameters: dict[str, Any] = field(default_factory=dict)
+    remaps: dict[str, str] = field(default_factory=dict)
 
     def ros_args(self, extra: Sequence[str] = ()) -> list[str]:
         args = ["--ros-args"]
@@ -54,6 +66,8 @@ class NodeLaunch:
             args += ["--params-file", str(path)]
         for key, value in self.parameters.items():
             args += ["-p", f"{key}:={_ros_value(value)}"]
+        for source, target in self.remaps.items():
+            args += ["-r", f"{source}:={target}"]
         extra = list(extra)
         if extra and extra[0] == "--ros-args":
             extra = extra[1:]
@@ -94,7 +108,8 @@ def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any]
         params.update(spec.get("parameters") or {})
         params.update(extra_params or {})
         params.update((node_params or {}).get(name, {}))
-        launches.append(NodeLaunch(name, module, files, params))
+        remaps = {str(k): str(v) for k, v in (spec.get("remap") or {}).items()}
+        launches.append(NodeLaunch(name, module, files, params, remaps))
     return launches, missing
 
 
@@ -209,7 +224,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Start the densepack node set (our launch file). ROS arguments after "
         "--ros-args are passed to every node.",
     )
-    parser.add_argument("cell", nargs="?", default="cell.yaml", help="cell file (config/cell.yaml)")
+    parser.add_argument("cell", nargs="?", default=None,
+                        help="cell file under config/ (default: the profile's)")
+    parser.add_argument("--profile", choices=sorted(PROFILES), default="sim",
+                        help="sim: the simulated cell (config/cell.yaml); real: densepack's "
+                        "nodes against the real drivers (config/real/cell.yaml)")
     parser.add_argument("--in-process", action="store_true", help="one process, one executor")
     parser.add_argument("--nodes", default="", help="comma-separated subset to start")
     parser.add_argument("--without", default="",
@@ -217,6 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "on the /rearrange action instead)")
     parser.add_argument("--scene", help="scene file for the sim and the goal publisher")
     parser.add_argument("--list", action="store_true", help="print the node set and exit")
+    parser.add_argument("--json", action="store_true",
+                        help="with --list: the commands as JSON ({name: argv}), for a launch file")
     return parser
 
 
@@ -228,9 +249,15 @@ def main(args: Sequence[str] | None = None) -> int:
     extra_params = {"scene_file": str(Path(opts.scene).resolve())} if opts.scene else {}
     only = [n for n in opts.nodes.split(",") if n]
     without = [n for n in opts.without.split(",") if n]
-    launches, missing = load_cell(config_path(opts.cell), only, extra_params, without)
+    cell_file = opts.cell or PROFILES[opts.profile]
+    launches, missing = load_cell(config_path(cell_file), only, extra_params, without)
     if missing:
         print(f"[cell] not implemented yet, not started: {', '.join(missing)}", flush=True)
+    if opts.list and opts.json:
+        print(json.dumps({launch.name: [sys.executable, "-m", launch.module,
+                                        *launch.ros_args(extra_ros)] for launch in launches},
+                         indent=2))
+        return 0
     if opts.list or not launches:
         for launch in launches:
             print(f"{launch.name}: {launch.module} {' '.join(launch.ros_args(extra_ros))}")

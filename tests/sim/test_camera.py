@@ -136,7 +136,7 @@ def test_the_look_pose_hides_no_block_from_the_camera(y):
     from nodes.executor.config import ExecutorConfig
     from nodes.executor.motion import ToolPose
     from nodes.executor.primitives import look_pose
-    from nodes.sim.kinematics import solve_tcp_ik
+    from nodes.robot.kinematics import solve_tcp_ik
 
     ws = Workspace(0.45, 0.95, -0.35, 0.35)
     s = rm.BLOCK_SIZE
@@ -148,7 +148,7 @@ def test_the_look_pose_hides_no_block_from_the_camera(y):
         cfg = ExecutorConfig()
         look = look_pose(cfg, ws, ToolPose(0.7, y, cfg.travel_height, 0.0))
         ik = solve_tcp_ik(pose_matrix([look.x, look.y, look.z], tool_down_quaternion(look.yaw)),
-                          world.controller.q_cmd)
+                          world.arm_q())
         assert ik.ok, ik.reason
         for joint, q in zip(world.arm_joints, ik.q, strict=True):
             world.client.resetJointState(world.robot, joint, float(q), 0.0)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from msgs_py import BlockPose, PickPlace, Pose2D
 from msgs_py.cell import GripperGeometry
@@ -105,7 +106,7 @@ def test_a_gripper_command_takes_effect_after_its_latency(world_factory):
     world.set_gripper(0.03)
     assert world.gripper_status()[1] == 0.085  # not there yet
     world.step(round(0.06 * 240))
-    assert world.gripper_status()[1] == 0.03
+    assert world.gripper_status()[1] == pytest.approx(0.03)
 
 
 def test_armed_faults_strike_at_their_moment(world_factory):

@@ -8,12 +8,12 @@ import numpy as np
 import pybullet
 import pytest
 from pybullet_utils import bullet_client
-from ur_analytic_ik import ur10e
+from ur_analytic_ik import ur10e as ur10e_ik
 
 from nodes.common.paths import asset_path
 from nodes.common.transforms import quaternion_to_matrix, tool_down_matrix
-from nodes.sim import kinematics as kin
-from nodes.sim import robot_model as rm
+from nodes.robot import kinematics as kin
+from nodes.robot import ur10e
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +25,7 @@ def urdf():
         info = client.getJointInfo(robot, j)
         joints[info[1].decode()] = j
         links[info[12].decode()] = j
-    yield client, robot, [joints[n] for n in rm.ARM_JOINTS], links
+    yield client, robot, [joints[n] for n in ur10e.ARM_JOINTS], links
     client.disconnect()
 
 
@@ -43,8 +43,8 @@ def urdf_pose(urdf, q, link: str) -> np.ndarray:
 def test_urdf_forward_kinematics_matches_dh_at_200_random_configurations(urdf):
     rng = np.random.default_rng(7)
     worst_mm, worst_deg = 0.0, 0.0
-    for q in rng.uniform(-rm.JOINT_LIMIT, rm.JOINT_LIMIT, (200, 6)):
-        dh = ur10e.forward_kinematics(*q)
+    for q in rng.uniform(-ur10e.JOINT_LIMIT, ur10e.JOINT_LIMIT, (200, 6)):
+        dh = ur10e_ik.forward_kinematics(*q)
         assert np.allclose(kin.flange_pose(q), dh, atol=1e-12)  # our DH == UR's published DH
         dp, dr = kin.pose_error(urdf_pose(urdf, q, "tool0"), dh)
         worst_mm, worst_deg = max(worst_mm, dp * 1e3), max(worst_deg, math.degrees(dr))
@@ -83,7 +83,7 @@ def test_ik_solves_500_workspace_poses_and_agrees_with_the_urdf(urdf):
         dp, dr = kin.pose_error(kin.tcp_pose(result.q), target)
         up, ur = kin.pose_error(urdf_pose(urdf, result.q, "tcp"), target)
         worst = [max(worst[0], dp), max(worst[1], dr), max(worst[2], up), max(worst[3], ur)]
-        assert np.all(np.abs(result.q) <= rm.JOINT_LIMIT)
+        assert np.all(np.abs(result.q) <= ur10e.JOINT_LIMIT)
         assert kin.joint_heights(result.q).min() >= kin.MIN_JOINT_HEIGHT
     assert worst[0] <= 1e-4 and math.degrees(worst[1]) <= 0.05, worst
     assert worst[2] <= 1e-4 and math.degrees(worst[3]) <= 0.05, worst
@@ -132,6 +132,6 @@ def test_unreachable_and_below_table_poses_have_reasons():
 
 def test_closed_form_joint_heights_match_the_dh_chain():
     rng = np.random.default_rng(3)
-    qs = rng.uniform(-rm.JOINT_LIMIT, rm.JOINT_LIMIT, (100, 6))
+    qs = rng.uniform(-ur10e.JOINT_LIMIT, ur10e.JOINT_LIMIT, (100, 6))
     chain = np.array([kin.joint_origins(q)[1:5, 2] for q in qs])
     assert np.allclose(kin.joint_heights(qs), chain, atol=1e-12)

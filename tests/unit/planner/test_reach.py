@@ -15,7 +15,7 @@ from nodes.planner.context import PlanContext
 from nodes.planner.dispatch import check_goal, plan_goal
 from nodes.planner.reach import ur10e_reach
 from nodes.planner.transfer import push_tcp_path
-from nodes.sim.kinematics import solve_tcp_ik
+from nodes.robot.kinematics import solve_tcp_ik
 
 S = 0.0508
 CONFIG = PlannerConfig(budget_s=20.0)

@@ -2,9 +2,10 @@
 
 ``densepack-bench sim [--quick] [--seeds K] [--blocks 9,25] [--sim-seconds S]`` builds a
 ``SimWorld`` per (n_blocks, seed) on a random scene (``random_sim_scene``, density
-``--density``), streams TCP setpoints at ``--setpoint-rate`` along a figure-of-eight over the
-workspace (gripper pointing down, yaw turning, the gripper opening and closing once a
-second) and times physics + controller + IK + event monitor as the node's loop runs them
+``--density``) and drives it through the arm node's logic in process (``SimArm``): TCP
+setpoints at ``--setpoint-rate`` along a figure-of-eight over the workspace (gripper pointing
+down, yaw turning, the gripper opening and closing once a second), timing physics + the
+trajectory controller + the arm's IK and playback + the event monitor as the cell runs them
 (ROS publishing excluded). Then it renders ``--renders`` camera frames. One row per n_blocks.
 """
 
@@ -18,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from nodes.bench.sim_arm import SimArm
 from nodes.common.transforms import tool_down_quaternion
 from nodes.sim import robot_model as rm
 from nodes.sim.config import CameraConfig, SimConfig
@@ -55,7 +57,7 @@ def tour_setpoint(t: float, scene) -> tuple[np.ndarray, np.ndarray]:
 def run_one(n_blocks: int, seed: int, opts: argparse.Namespace) -> dict[str, Any]:
     scene = random_sim_scene(n_blocks, opts.density, seed)
     config = SimConfig(physics_rate_hz=opts.physics_rate)
-    world = SimWorld(config, CameraConfig().model(), scene)
+    world = SimArm(SimWorld(config, CameraConfig().model(), scene))
     try:
         every = max(1, round(config.physics_rate_hz / opts.setpoint_rate))
         steps = round(opts.sim_seconds / config.dt)
@@ -74,7 +76,7 @@ def run_one(n_blocks: int, seed: int, opts: argparse.Namespace) -> dict[str, Any
             world.render()
             renders.append(time.perf_counter() - t0)
         return {"sim_s": world.time_s, "wall_s": wall, "rtf": world.time_s / wall,
-                "render_s": renders, "rejected": world.controller.rejected,
+                "render_s": renders, "rejected": world.core.controller.rejected,
                 "contacts": world.monitor.unintended_contacts}
     finally:
         world.close()

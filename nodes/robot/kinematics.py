@@ -14,14 +14,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from ur_analytic_ik import ur10e
+from ur_analytic_ik import ur10e as ur10e_ik
 
-from nodes.sim import robot_model as rm
+from nodes.robot import gripper_2f85 as g85
+from nodes.robot import ur10e
 
 TWO_PI = 2.0 * math.pi
 #: Flange -> TCP: straight out of the flange to the fingertips; x stays the closing axis.
 FLANGE_TO_TCP = np.eye(4)
-FLANGE_TO_TCP[2, 3] = rm.TCP_OFFSET
+FLANGE_TO_TCP[2, 3] = g85.TCP_OFFSET
 TCP_TO_FLANGE = np.linalg.inv(FLANGE_TO_TCP)
 #: Turning the tool by pi about its z axis swaps the fingers: the same two-finger grasp.
 FLIP_Z = np.diag([-1.0, -1.0, 1.0, 1.0])
@@ -47,7 +48,7 @@ def flange_pose(q) -> np.ndarray:
     """4x4 pose of the tool flange (DH frame 6) in ``world``."""
     t = np.eye(4)
     for i in range(6):
-        t = t @ dh_transform(float(q[i]), rm.DH_D[i], rm.DH_A[i], rm.DH_ALPHA[i])
+        t = t @ dh_transform(float(q[i]), ur10e.DH_D[i], ur10e.DH_A[i], ur10e.DH_ALPHA[i])
     return t
 
 
@@ -63,7 +64,7 @@ def pose_error(t_a: np.ndarray, t_b: np.ndarray) -> tuple[float, float]:
     return dp, math.acos(max(-1.0, min(1.0, cos_angle)))
 
 
-def nearest_turn(q: np.ndarray, q_ref: np.ndarray, limit: float = rm.JOINT_LIMIT) -> np.ndarray:
+def nearest_turn(q: np.ndarray, q_ref: np.ndarray, limit: float = ur10e.JOINT_LIMIT) -> np.ndarray:
     """Each joint of ``q`` moved by whole turns to the value nearest ``q_ref`` within +-limit."""
     out = q_ref + np.remainder(q - q_ref + math.pi, TWO_PI) - math.pi
     out = np.where(out > limit, out - TWO_PI, out)
@@ -88,7 +89,7 @@ def joint_origins(q) -> np.ndarray:
     t = np.eye(4)
     out = np.empty((6, 3))
     for i in range(6):
-        t = t @ dh_transform(float(q[i]), rm.DH_D[i], rm.DH_A[i], rm.DH_ALPHA[i])
+        t = t @ dh_transform(float(q[i]), ur10e.DH_D[i], ur10e.DH_A[i], ur10e.DH_ALPHA[i])
         out[i] = t[:3, 3]
     return out
 
@@ -101,22 +102,22 @@ def joint_heights(qs: np.ndarray) -> np.ndarray:
     """
     qs = np.atleast_2d(qs)
     q2, q23, q234 = qs[:, 1], qs[:, 1] + qs[:, 2], qs[:, 1] + qs[:, 2] + qs[:, 3]
-    elbow = rm.DH_D[0] + rm.DH_A[1] * np.sin(q2)
-    wrist1 = elbow + rm.DH_A[2] * np.sin(q23)
-    wrist3 = wrist1 - rm.DH_D[4] * np.cos(q234)
+    elbow = ur10e.DH_D[0] + ur10e.DH_A[1] * np.sin(q2)
+    wrist1 = elbow + ur10e.DH_A[2] * np.sin(q23)
+    wrist3 = wrist1 - ur10e.DH_D[4] * np.cos(q234)
     return np.column_stack([elbow, wrist1, wrist1, wrist3])
 
 
 def _solutions(t_flange: np.ndarray) -> tuple[np.ndarray, int]:
     """(n, 6) checked closed-form solutions, and how many went below the table."""
-    sols = ur10e.inverse_kinematics(np.ascontiguousarray(t_flange, dtype=float))
+    sols = ur10e_ik.inverse_kinematics(np.ascontiguousarray(t_flange, dtype=float))
     if not sols:
         return np.empty((0, 6)), 0
     qs = np.asarray(sols, dtype=float)
     qs = qs[np.all(np.isfinite(qs), axis=1)]
     if not len(qs):
         return qs, 0
-    error = np.abs(np.stack([ur10e.forward_kinematics(*q) for q in qs]) - t_flange)
+    error = np.abs(np.stack([ur10e_ik.forward_kinematics(*q) for q in qs]) - t_flange)
     ok = (error[:, :3, 3].max(axis=1) <= IK_CHECK_POS) & (
         error[:, :3, :3].reshape(len(qs), -1).max(axis=1) <= IK_CHECK_ROT)
     qs = qs[ok]
@@ -127,7 +128,7 @@ def _solutions(t_flange: np.ndarray) -> tuple[np.ndarray, int]:
 def travel_time(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
     """Seconds the slowest joint needs at its velocity limit (per row of ``q``): the
     branch-choice metric."""
-    return np.max(np.abs(q - q_ref) / np.asarray(rm.JOINT_VELOCITY_LIMIT), axis=-1)
+    return np.max(np.abs(q - q_ref) / np.asarray(ur10e.JOINT_VELOCITY_LIMIT), axis=-1)
 
 
 def solve_tcp_ik(t_tcp: np.ndarray, q_ref, allow_flip: bool = True) -> IkResult:

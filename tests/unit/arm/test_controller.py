@@ -1,18 +1,16 @@
-"""Arm controller: setpoint validation, hold-on-reject, rate limits."""
+"""The arm node's controller: setpoint validation, hold-on-reject, rate limits, the slider."""
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import pytest
 
+from nodes.arm.controller import ArmController
 from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.executor.motion import Limits, LinearMove, ToolPose
-from nodes.sim import robot_model as rm
+from nodes.robot import ur10e
+from nodes.robot.kinematics import pose_error, tcp_pose
 from nodes.sim.config import HOME_JOINTS
-from nodes.sim.controller import ArmController, clip_gripper_gap
-from nodes.sim.kinematics import pose_error, tcp_pose
 
 DT = 1.0 / 240.0
 
@@ -27,11 +25,11 @@ def test_reaches_an_accepted_setpoint_within_joint_limits():
     assert ctrl.set_setpoint(target[:3, 3], tool_down_quaternion(0.4)).accepted
     qs = np.array([HOME_JOINTS, *run(ctrl, 5.0)])
     steps = np.abs(np.diff(qs, axis=0))
-    assert np.all(steps <= np.asarray(rm.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-9))
+    assert np.all(steps <= np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-9))
     accel = np.abs(np.diff(np.diff(qs, axis=0), axis=0)) / DT**2
     # (the last step onto the target may exceed the limit by up to 10 %: the discrete
     # braking profile lands on the target in whole physics steps)
-    assert np.all(accel <= np.asarray(rm.JOINT_ACCELERATION_LIMIT) * 1.10)
+    assert np.all(accel <= np.asarray(ur10e.JOINT_ACCELERATION_LIMIT) * 1.10)
     dp, dr = pose_error(tcp_pose(qs[-1]), target)
     assert dp < 1e-6 and dr < 1e-6
 
@@ -63,14 +61,6 @@ def test_speed_scale_slows_the_arm():
     assert np.max(np.abs(slow_q - HOME_JOINTS)) < np.max(np.abs(fast_q - HOME_JOINTS))
     with pytest.raises(ValueError):
         ArmController(HOME_JOINTS, speed_scale=0.0)
-
-
-def test_gripper_command_is_clipped_to_the_stroke():
-    assert clip_gripper_gap(-0.01) == 0.0
-    assert clip_gripper_gap(0.2) == rm.GRIPPER_STROKE
-    assert clip_gripper_gap(0.05) == 0.05
-    with pytest.raises(ValueError):
-        clip_gripper_gap(math.nan)
 
 
 def stream_line(ctrl: ArmController, start, end, speed: float, accel: float = 4.0,
@@ -113,7 +103,7 @@ def test_a_setpoint_stream_is_followed_on_its_line_a_servo_delay_behind():
     qs, move = stream_line(ctrl, start, end, speed=1.0, t0=10.0)
     assert off_line(qs, start, end) < 5e-4
     steps = np.abs(np.diff(qs, axis=0))
-    assert np.all(steps <= np.asarray(rm.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-9))
+    assert np.all(steps <= np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-9))
     dp, _ = pose_error(tcp_pose(qs[-1]), pose_matrix(end, tool_down_quaternion(0.0)))
     assert dp < 1e-6
     # at time t the arm is where the stream was at t - servo_delay
@@ -133,7 +123,7 @@ def test_a_stream_too_fast_for_the_joints_is_slowed_down_on_its_path():
     ctrl.now = 10.0
     qs, _ = stream_line(ctrl, start, end, speed=3.0, accel=20.0, t0=10.0, tail_s=2.0)
     steps = np.abs(np.diff(qs, axis=0))
-    assert np.all(steps <= np.asarray(rm.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-3))
+    assert np.all(steps <= np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-3))
     assert ctrl.scaled_steps > 0
     assert off_line(qs, start, end) < 5e-4
     dp, _ = pose_error(tcp_pose(qs[-1]), pose_matrix(end, tool_down_quaternion(0.0)))
@@ -150,7 +140,7 @@ def test_a_stream_that_pauses_and_resumes_from_where_it_stopped_does_not_jump():
     second, _ = stream_line(ctrl, mid, end, speed=1.0, t0=ctrl.now)  # after a 2 s pause
     qs = np.concatenate([first, second])
     assert off_line(qs, start, end) < 5e-4
-    assert np.all(np.abs(np.diff(qs, axis=0)) <= np.asarray(rm.JOINT_VELOCITY_LIMIT) * DT * 1.01)
+    assert np.all(np.abs(np.diff(qs, axis=0)) <= np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * DT * 1.01)
 
 
 def test_a_protective_stop_holds_where_measured_and_refuses_setpoints_until_unlocked():

@@ -1,7 +1,9 @@
-"""The arm's own controller (like the UR's): setpoint validation, IK, streamed playback.
+"""The arm node's controller: setpoint validation, IK and streamed playback, in joint space.
 
-Pure logic, no PyBullet and no ROS: the world asks ``step(dt, now)`` for the joint position
-and velocity to command each physics step; the node hands over setpoints and gripper commands.
+Pure logic, no ROS and no simulator: the arm node hands over Cartesian setpoints, steps
+``step(dt, now)`` ahead of the arm and sends the joint positions and velocities it yields to
+the robot driver's motion controller (``nodes.arm.commands``). It plays a stream the way a UR
+plays ``servoj`` commands, which is what the cell's executor expects of its arm:
 
 * A Cartesian setpoint (TCP pose in ``world``, stamped) is validated (frame, finite, unit-able
   quaternion, above the safety plane ``min_tcp_z``), solved by closed-form IK with the branch
@@ -9,17 +11,20 @@ and velocity to command each physics step; the node hands over setpoints and gri
   taken: streaming never asks for a 180-degree wrist flip), and joins the stream. A setpoint
   that fails any check is rejected with the reason, the stream is dropped and the arm holds
   still where it is commanded now.
-* A stream of setpoints is played back the way a UR plays ``servoj`` commands: the joint
-  positions are interpolated between setpoints ``servo_delay_s`` behind their stamps, so a
-  smooth Cartesian trajectory is followed exactly however coarsely it was sampled. Where it
-  would ask a joint for more speed or acceleration than the UR10e has, playback slows down
-  (speed scaling, as on the real robot): the tool stays on its path and arrives late.
+* A stream of setpoints is played back ``servo_delay_s`` behind their stamps, the joint
+  positions interpolated between setpoints, so a smooth Cartesian trajectory is followed
+  exactly however coarsely it was sampled. Where it would ask a joint for more speed or
+  acceleration than the UR10e has, playback slows down: the tool stays on its path and
+  arrives late.
+* The teach pendant's speed slider (``set_speed_scaling``, a fraction) stretches time the way
+  ur_robot_driver's scaled trajectory controller does: the same path, every speed times the
+  fraction, every acceleration times its square; at 0 the arm stands still on its path.
 * A setpoint that starts a stream (after a pause, or the first one) is reached point to
   point: a straight line in joint space, each joint within its velocity and acceleration
   limits, braking to a stop on the target without overshoot.
-* A protective stop (the world calls ``protective_stop`` when the tool presses on something
-  harder than the limit) holds the arm where it is measured and rejects every setpoint until
-  ``unlock``: the UR's safety system does the same, and its driver's dashboard unlocks it.
+* A protective stop (the driver reports it) holds the command where the arm is measured and
+  rejects every setpoint until ``unlock``: the UR's safety system does the same, and its
+  dashboard unlocks it.
 """
 
 from __future__ import annotations
@@ -31,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodes.common.transforms import pose_matrix
-from nodes.sim import robot_model as rm
-from nodes.sim.kinematics import solve_tcp_ik, tcp_pose
+from nodes.robot import ur10e
+from nodes.robot.kinematics import solve_tcp_ik, tcp_pose
 
 ACCEPTED_FRAMES = ("world", "")
 
@@ -54,10 +59,11 @@ class ArmController:
                  servo_delay_s: float = 0.04) -> None:
         if not 0.0 < speed_scale <= 1.0:
             raise ValueError(f"speed_scale must be in (0, 1], got {speed_scale}")
-        self.v_max = np.asarray(rm.JOINT_VELOCITY_LIMIT) * speed_scale
-        self.a_max = np.asarray(rm.JOINT_ACCELERATION_LIMIT)
+        self.v_max = np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * speed_scale
+        self.a_max = np.asarray(ur10e.JOINT_ACCELERATION_LIMIT)
         self.min_tcp_z = float(min_tcp_z)
         self.servo_delay_s = float(servo_delay_s)
+        self.speed_scaling = 1.0  #: the speed slider (fraction, 0 = stand still)
         self.reset(q_start)
 
     def reset(self, q_start) -> None:
@@ -70,7 +76,7 @@ class ArmController:
         self._stream_start = -math.inf
         self.accepted = 0
         self.rejected = 0
-        self.scaled_steps = 0  # physics steps in which playback was slowed for the joints
+        self.scaled_steps = 0  # steps in which playback was slowed for the joints
         self.last_reason = ""
         self.stopped = ""  #: why the arm is in a protective stop ("" = it is not)
 
@@ -152,6 +158,21 @@ class ArmController:
         was, self.stopped = bool(self.stopped), ""
         return was
 
+    def set_speed_scaling(self, fraction: float) -> None:
+        """The speed slider, as a fraction (the driver reports percent): clipped to [0, 1]."""
+        if not math.isfinite(fraction):
+            raise ValueError(f"speed scaling {fraction} is not finite")
+        self.speed_scaling = min(max(float(fraction), 0.0), 1.0)
+
+    @property
+    def stream_time(self) -> float | None:
+        """The stamp time (s) of the stream the arm is commanded at now: where playback stands,
+        or the stream's first stamp while the arm still travels to its first point; None when
+        no stream is left to play (what a commander paces itself on)."""
+        if self.playback is not None:
+            return self.playback
+        return self.stream[0][0] if self.stream else None
+
     def set_joint_target(self, q) -> None:
         """Move to a joint configuration (home/park) point to point, with the same limits."""
         self.stream.clear()
@@ -179,7 +200,7 @@ class ArmController:
         cannot keep up (the path is kept, the timing stretched)."""
         assert self.playback is not None
         goal = min(self.now - self.servo_delay_s, self.stream[-1][0])
-        advance = max(0.0, min(dt, goal - self.playback))
+        advance = max(0.0, min(dt * self.speed_scaling, goal - self.playback))
         if advance <= 0.0:
             if self.playback >= self.stream[-1][0]:
                 self._settle(dt)  # played to the newest setpoint: stop on it
@@ -260,9 +281,13 @@ class ArmController:
         # (discrete-time bound), what reaches it this step; one common scale keeps the motion
         # on a straight line in joint space, and one common fraction of the velocity change
         # keeps every joint inside its acceleration limit.
-        a_dt = self.a_max * dt
+        s = self.speed_scaling
+        if s <= 0.0:
+            self.v_cmd = np.zeros(6)
+            return
+        a_dt = self.a_max * (s * s) * dt
         brake = a_dt * (np.sqrt(0.25 + 2.0 * dist / (a_dt * dt)) - 0.5)
-        allowed = np.minimum(np.minimum(self.v_max, brake), dist / dt)
+        allowed = np.minimum(np.minimum(self.v_max * s, brake), dist / dt)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(dist > 0, allowed / dist, np.inf)
         dv = error * float(np.min(ratio)) - self.v_cmd
@@ -285,10 +310,3 @@ class ArmController:
     def settled(self) -> bool:
         q = self.stream[-1][1] if self.stream else self.q_target
         return bool(np.max(np.abs(q - self.q_cmd)) < 1e-9)
-
-
-def clip_gripper_gap(gap: float) -> float:
-    """Commanded pad gap (m) clipped to the 2F-85 stroke; refuses non-finite values."""
-    if not math.isfinite(gap):
-        raise ValueError(f"gripper command {gap} is not finite")
-    return min(max(float(gap), 0.0), rm.GRIPPER_STROKE)

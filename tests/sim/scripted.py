@@ -1,4 +1,4 @@
-"""Scripted motions on a ``SimWorld``, the way the executor streams them (for tests and bench).
+"""Scripted motions on a ``SimArm``, the way the executor streams them (for the sim tests).
 
 Setpoints are streamed on straight lines at a given TCP speed, one per physics step, the
 gripper pointing down (``tool_down_quaternion(yaw)``). ``pick`` / ``place`` / ``push``
@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 
+from nodes.bench.sim_arm import SimArm
 from nodes.common.transforms import tool_down_quaternion
 from nodes.sim import robot_model as rm
-from nodes.sim.world import SimWorld
 
 SAFE_Z = 0.15  #: m, transfer height of the TCP (fingertips well above 50.8 mm blocks)
 GRASP_Z = 0.015  #: m, TCP height when grasping (fingertips 15 mm above the table)
@@ -26,10 +26,10 @@ PUSH_OPENING = 0.030  #: m, gap between the fingers for a two-finger push
 class Streamer:
     """Streams straight-line TCP setpoints into a world, one per physics step."""
 
-    def __init__(self, world: SimWorld, yaw: float = 0.0) -> None:
+    def __init__(self, world: SimArm, yaw: float = 0.0) -> None:
         self.world = world
         self.yaw = yaw
-        self.position = np.asarray(world.controller.target_tcp()[:3, 3], dtype=float)
+        self.position = np.asarray(world.commanded_tcp()[:3, 3], dtype=float)
         self.rejections: list[str] = []
 
     def move_to(self, target, speed: float = 0.25, yaw: float | None = None,

@@ -1,0 +1,154 @@
+"""From the arm controller's playback to what the UR driver takes: joint trajectory snippets,
+or joint positions.
+
+Pure logic (no ROS). ``JointStreamer`` steps the ``ArmController`` ahead of the arm, in the
+controller's own small steps, and cuts what it commands into messages:
+
+* ``snippet(now)``: the next ``horizon_s`` of commanded joint positions and velocities as a
+  ``trajectory_msgs/JointTrajectory`` for ur_robot_driver's ``scaled_joint_trajectory_controller``,
+  stamped ``now``, one point every ``point_spacing_s``, the last at rest (the controller refuses
+  a trajectory that ends moving). Each one replaces the last on the controller, which plays it
+  from the state the arm is in, so the arm follows the controller's playback ``horizon_s``
+  ahead of it being needed, and stops within one point spacing if the snippets stop coming.
+  The controller interpolates between points in C++ at its own rate (500 Hz on a UR), which a
+  Python node cannot match; this is why trajectories are the default.
+* ``position(now)``: the commanded joints one period ahead, for the ``forward_position_controller``
+  (servoj, one position per message; rclpy's timing makes this coarser: the benchmark
+  ``densepack-bench arm`` measures both).
+
+While the executor streams, the horizon never reaches past the newest setpoint's stamp plus the
+controller's servo delay, so the snippets' end, which the sim paces its clock on, follows the
+executor: the sim never outruns the commander. When the arm stands still nothing is sent.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodes.arm.controller import STREAM_GAP_S, ArmController
+
+#: Samples this close (rad) count as the arm standing still.
+AT_REST_RAD = 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class TrajectorySnippet:
+    """A JointTrajectory's content in the controller's joint order (``nodes.robot.ur10e``)."""
+
+    start_s: float  #: header stamp (s)
+    times: tuple[float, ...]  #: each point's time_from_start (s)
+    positions: np.ndarray  #: (n, 6) rad
+    velocities: np.ndarray  #: (n, 6) rad/s, the last row zero
+
+    @property
+    def end_s(self) -> float:
+        return self.start_s + self.times[-1]
+
+    def as_points(self) -> list[tuple[float, list[float], list[float], list[float], list[float]]]:
+        """(time_from_start, positions, velocities, accelerations, effort) per point: a
+        JointTrajectory's points as the sim's trajectory controller takes them decoded."""
+        return [(t, q.tolist(), v.tolist(), [], [])
+                for t, q, v in zip(self.times, self.positions, self.velocities, strict=True)]
+
+
+class JointStreamer:
+    """Runs the arm controller ahead of the arm and hands out its commands."""
+
+    def __init__(self, controller: ArmController, step_s: float = 1.0 / 240.0,
+                 horizon_s: float = 0.08, point_spacing_s: float = 0.02) -> None:
+        if not 0.0 < step_s <= point_spacing_s <= horizon_s:
+            raise ValueError(f"need 0 < step_s ({step_s}) <= point_spacing_s "
+                             f"({point_spacing_s}) <= horizon_s ({horizon_s})")
+        self.controller = controller
+        self.step_s = step_s
+        self.horizon_s = horizon_s
+        self.point_spacing_s = point_spacing_s
+        self.newest_setpoint: float | None = None  #: stamp of the newest accepted setpoint (s)
+        self._samples: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._quiet = False  # the last snippet sent ended at rest and nothing moved since
+
+    def reset(self, q: np.ndarray, now: float) -> None:
+        """Start again from the arm measured at ``q`` (a protective stop, a restart)."""
+        self.controller.reset(q)
+        self.controller.now = now
+        self.newest_setpoint = None
+        self._samples = []
+        self._quiet = False
+
+    def on_setpoint(self, stamp_s: float | None) -> None:
+        if stamp_s is not None and (self.newest_setpoint is None
+                                    or stamp_s > self.newest_setpoint):
+            self.newest_setpoint = stamp_s
+        self._quiet = False
+
+    def _horizon(self, now: float) -> float:
+        """How far ahead to command: ``horizon_s``, but while setpoints stream no further than
+        the newest one's stamp plus the servo delay (the sim paces on the snippets' end, so it
+        then waits for the executor). Once the stream has ended (no setpoint for a stream
+        gap) the playback finishes on its own: it may lag the stamps (a slow start, the joint
+        limits, the slider) and must still reach the last setpoint."""
+        end = now + self.horizon_s
+        c = self.controller
+        newest = self.newest_setpoint
+        if c.playback is not None and newest is not None and now - newest <= STREAM_GAP_S:
+            end = min(end, newest + c.servo_delay_s)
+        return end
+
+    def _advance(self, now: float, end: float) -> None:
+        """Step the controller to ``end`` (never back); keep the samples after ``now``."""
+        c = self.controller
+        if c.now < now - self.step_s:  # it fell behind (a pause): it cannot command the past
+            c.now = now
+        while c.now + self.step_s <= end + 1e-9:
+            q, v = c.step(self.step_s)
+            self._samples.append((c.now, q, v))
+            if any(abs(x) > AT_REST_RAD * 1e3 for x in v):
+                self._quiet = False
+        self._samples = [s for s in self._samples if s[0] > now + 1e-9]
+
+    def snippet(self, now: float) -> TrajectorySnippet | None:
+        """The trajectory to send at ``now`` (s), or None: nothing to move."""
+        self._advance(now, self._horizon(now))
+        if not self._samples:
+            return None
+        moving = not self.controller.settled or any(
+            float(np.max(np.abs(q - self._samples[-1][1]))) > AT_REST_RAD
+            for _, q, _ in self._samples)
+        if not moving and self._quiet:
+            return None
+        self._quiet = not moving
+        picked = self._pick(now)
+        times = tuple(t - now for t, _, _ in picked)
+        positions = np.array([q for _, q, _ in picked])
+        velocities = np.array([v for _, _, v in picked])
+        velocities[-1] = 0.0
+        return TrajectorySnippet(now, times, positions, velocities)
+
+    def _pick(self, now: float) -> list[tuple[float, np.ndarray, np.ndarray]]:
+        """Samples one point spacing apart from ``now``, and the last one."""
+        picked, due = [], now + self.point_spacing_s
+        for sample in self._samples:
+            if sample[0] >= due - 1e-9:
+                picked.append(sample)
+                due = sample[0] + self.point_spacing_s
+        if not picked or picked[-1] is not self._samples[-1]:
+            picked.append(self._samples[-1])
+        return picked
+
+    def position(self, now: float, period_s: float) -> np.ndarray:
+        """The joints commanded ``period_s`` from ``now``, for a forward position command."""
+        target = now + period_s
+        self._advance(now, min(self._horizon(now), target))
+        if not self._samples:
+            return self.controller.q_cmd.copy()
+        best = min(self._samples, key=lambda s: abs(s[0] - target))
+        return best[1].copy()
+
+
+def stream_time_or_nan(controller: ArmController) -> float:
+    """The stream time the arm is commanded at, NaN for none (a message field)."""
+    value = controller.stream_time
+    return math.nan if value is None else value

@@ -1,0 +1,1 @@
+"""Benchmarks, scene sets and in-process players: the floor above every node package."""
