@@ -34,6 +34,13 @@ GRIPPER_OBJECT_STATES = (
     "at_position",  # reached the requested gap: no object
 )
 
+#: The executor's view of the arm: it moves, or it stopped (and why). The executor node makes
+#: it from the arm node's ``ArmStatus``.
+SAFETY_MODES = (
+    "normal",
+    "protective_stop",  # the arm holds where it stopped until it can move again
+)
+
 #: What the arm node says of the arm (``nodes.arm.readiness`` says when each holds).
 ARM_STATES = (
     "ready",  # setpoints are followed
@@ -142,3 +149,20 @@ class ArmStatus:
     @property
     def protective_stop(self) -> bool:
         return self.state == "protective_stop"
+
+
+@dataclass(frozen=True, slots=True)
+class SafetyMode:
+    """The arm's safety mode (``SAFETY_MODES``) since ``stamp_ns``, and why it stopped."""
+
+    mode: str
+    reason: str = ""
+    stamp_ns: int = 0
+
+    def __post_init__(self) -> None:
+        if self.mode not in SAFETY_MODES:
+            raise MessageError("mode", self.mode, f"expected one of {list(SAFETY_MODES)}")
+
+    @property
+    def stopped(self) -> bool:
+        return self.mode == "protective_stop"

@@ -29,12 +29,12 @@ import threading
 import time
 from dataclasses import dataclass
 
+from densepack_interfaces.msg import GripperStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
-from sensor_msgs.msg import CameraInfo, Image, JointState
-from std_msgs.msg import Float64
-from std_srvs.srv import Trigger
+from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import Float64, Header
 
 from msgs_py import MessageError, load_scene
 from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
@@ -53,7 +53,7 @@ from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector, to_gray
 from nodes.detector.sync import StampPairer
 from nodes.detector.tags import REFINEMENTS, FinderSettings, TagFinder
-from nodes.executor.node import FINGER_JOINTS, tool_pose_from_msg
+from nodes.executor.node import tool_pose_from_msg
 
 MODES = ("scene", "arm")
 
@@ -79,8 +79,9 @@ class CalibrateConfig:
     block_size: float = param(BLOCK_SIZE, "cube side; tags lie in the plane z = block_size",
                               unit="m")
     tag_size: float = param(TAG_SIZE, "side of the tag's black square", unit="m")
-    trigger: bool = param(False, "ask for each frame on /camera/trigger (std_srvs/Trigger) "
-                          "instead of waiting for the camera's own rate")
+    request_frames: bool = param(
+        False, "ask the sim for each frame on /sim/render_request (std_msgs/Header; only a "
+        "sim listens: a real camera streams) instead of waiting for the camera's own rate")
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -113,14 +114,14 @@ class CalibrateNode(Node):
                                  callback_group=group)
         self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, CAMERA,
                                  callback_group=group)
-        self.trigger_client = self.create_client(Trigger, "/camera/trigger") \
-            if self.config.trigger or self.arm else None
+        self.render_pub = self.create_publisher(Header, "/sim/render_request", RELIABLE) \
+            if self.config.request_frames or self.arm else None
         if self.arm:
             self._start_arm()
             return
         scene = load_scene(config_path(self.config.known_poses_file))
         self.known = {b.id: b for b in scene.blocks}
-        if self.trigger_client is not None:
+        if self.render_pub is not None:
             self.create_timer(0.5, self.request_frame)
         self.get_logger().info(
             f"calibrating from {len(self.known)} known blocks in "
@@ -140,9 +141,9 @@ class CalibrateNode(Node):
                                                   RELIABLE)
         self.gripper_pub = self.create_publisher(Float64, "/gripper/command", RELIABLE)
         arm_group = MutuallyExclusiveCallbackGroup()  # never waits for a detection
-        self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE,
+        self.create_subscription(PoseStamped, "/arm/tcp_pose", self.on_tcp, RELIABLE,
                                  callback_group=arm_group)
-        self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE,
+        self.create_subscription(GripperStatus, "/gripper/status", self.on_gripper, RELIABLE,
                                  callback_group=arm_group)
         self.create_timer(1.0 / executor.rate_hz, self.on_tick, callback_group=arm_group)
         self.get_logger().info(
@@ -151,8 +152,8 @@ class CalibrateNode(Node):
             f"{config_path(self.config.calibration_file)}")
 
     def request_frame(self) -> None:
-        if not self.done.is_set() and self.trigger_client.service_is_ready():
-            self.trigger_client.call_async(Trigger.Request())
+        if not self.done.is_set():
+            self.render_pub.publish(Header(stamp=self.get_clock().now().to_msg()))
 
     def on_image(self, msg: Image) -> None:
         self._take(self.pairer.add_image(stamp_to_ns(msg.header.stamp), msg))
@@ -196,20 +197,17 @@ class CalibrateNode(Node):
         try:
             pose = tool_pose_from_msg(msg)
         except ValueError as err:
-            self.get_logger().warning(f"ignoring a malformed /tcp_pose: {err}")
+            self.get_logger().warning(f"ignoring a malformed /arm/tcp_pose: {err}")
             return
         with self.lock:
             self.routine.on_tcp(pose, stamp_to_ns(msg.header.stamp) * 1e-9 or None)
 
-    def on_joints(self, msg: JointState) -> None:
-        """The pads' gap: the sum of the two finger joints (docs/contracts.md)."""
-        try:
-            gap = sum(msg.position[msg.name.index(n)] for n in FINGER_JOINTS)
-        except (ValueError, IndexError):
-            return
+    def on_gripper(self, msg: GripperStatus) -> None:
+        """The pads' gap, as the gripper node measures it."""
+        gap = float(msg.gap)
         if math.isfinite(gap):
             with self.lock:
-                self.routine.on_finger_gap(float(gap), stamp_to_ns(msg.header.stamp) * 1e-9)
+                self.routine.on_finger_gap(gap, stamp_to_ns(msg.header.stamp) * 1e-9)
 
     def on_tick(self) -> None:
         now = self.get_clock().now()
@@ -224,8 +222,8 @@ class CalibrateNode(Node):
             self.setpoint_pub.publish(pose_stamped_msg(now.to_msg(), (p.x, p.y, p.z), q))
         if out.gripper is not None:
             self.gripper_pub.publish(Float64(data=float(out.gripper)))
-        if out.want_frame and self.trigger_client.service_is_ready():
-            self.trigger_client.call_async(Trigger.Request())
+        if out.want_frame:
+            self.render_pub.publish(Header(stamp=now.to_msg()))
         if finished:
             self.done.set()
 

@@ -1,14 +1,16 @@
 """``densepack-executor``: streams a plan to the arm as Cartesian setpoints, closing the loop.
 
 Subscriptions: ``/plan`` (Plan, latched), ``/blocks/detected`` (BlockPoseArray),
-``/planner/status`` (PlannerStatus, latched), ``/tcp_pose`` (PoseStamped), ``/joint_states``.
-Publications: ``/arm/cartesian_setpoint`` (PoseStamped, world, gripper down),
-``/gripper/command`` (Float64, m), ``/executor/status`` (ExecutorStatus, latched),
-``/goal_layout`` (GoalLayout, latched: a Rearrange goal's layout). Services:
+``/planner/status`` (PlannerStatus, latched), ``/arm/tcp_pose`` (PoseStamped) and
+``/arm/status`` (ArmStatus) from the arm node, ``/gripper/status`` from the gripper node,
+``/camera/camera_info`` (when a frame was taken). Publications: ``/arm/cartesian_setpoint``
+(PoseStamped, world, gripper down), ``/gripper/command`` (Float64, m), ``/executor/status``
+(ExecutorStatus, latched), ``/goal_layout`` (GoalLayout, latched: a Rearrange goal's layout),
+``/sim/render_request`` (a frame now, in the sim only: a real camera streams). Services:
 ``/executor/start``, ``/executor/stop`` (Trigger). Action: ``/rearrange`` (Rearrange,
-``nodes/executor/rearrange.py``). Clients: ``/camera/trigger`` (a fresh frame with the arm
-parked), ``/planner/replan``. Typed messages are ``densepack_interfaces``. All the behaviour
-lives in ``ExecutorCore``; this node only converts and forwards.
+``nodes/executor/rearrange.py``). Clients: ``/planner/replan``,
+``/arm/unlock_protective_stop``. Typed messages are ``densepack_interfaces``. All the
+behaviour lives in ``ExecutorCore``; this node only converts and forwards.
 """
 
 from __future__ import annotations
@@ -19,29 +21,32 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from densepack_interfaces.msg import BlockPoseArray, GripperStatus, Placement, SafetyMode
+from densepack_interfaces.msg import ArmStatus, BlockPoseArray, GripperStatus, Placement
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
+from sensor_msgs.msg import CameraInfo
+from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from msgs_py import ExecutorStatus, MessageError
 from msgs_py.checks import finite_float
 from msgs_py.interface_codecs import (
+    arm_status_from_msg,
     block_set_from_msg,
     executor_status_to_msg,
     gripper_status_from_msg,
     placement_to_msg,
     plan_from_msg,
     planner_status_from_msg,
-    safety_mode_from_msg,
 )
+from msgs_py.ros_codecs import stamp_to_ns
+from msgs_py.status import ArmStatus as ArmStatusRecord
+from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config
-from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
 from nodes.executor.config import ExecutorConfig
@@ -49,23 +54,23 @@ from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
 from nodes.executor.rearrange import RearrangeServer
 
-FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
-
 TOPICS = """\
 subscribes: /plan (densepack_interfaces/Plan, latched),
             /blocks/detected (densepack_interfaces/BlockPoseArray),
             /planner/status (densepack_interfaces/PlannerStatus, latched),
-            /tcp_pose (geometry_msgs/PoseStamped), /joint_states (sensor_msgs/JointState),
+            /arm/tcp_pose (geometry_msgs/PoseStamped: the arm node's, from the joints),
+            /arm/status (densepack_interfaces/ArmStatus, latched: can the arm move),
             /gripper/status (densepack_interfaces/GripperStatus: grasp supervision),
-            /arm/safety_mode (densepack_interfaces/SafetyMode, latched: protective stops)
+            /camera/camera_info (sensor_msgs/CameraInfo: a frame was taken)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /gripper/command (std_msgs/Float64),
             /executor/status (densepack_interfaces/ExecutorStatus, latched),
             /executor/placements (densepack_interfaces/Placement: blocks set down),
-            /goal_layout (densepack_interfaces/GoalLayout, latched: a /rearrange goal's layout)
+            /goal_layout (densepack_interfaces/GoalLayout, latched: a /rearrange goal's layout),
+            /sim/render_request (std_msgs/Header: a frame now; only a sim listens)
 action:     /rearrange (densepack_interfaces/action/Rearrange)
 services:   /executor/start, /executor/stop (std_srvs/Trigger)
-calls:      /camera/trigger, /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger)"""
+calls:      /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger)"""
 
 
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
@@ -78,19 +83,14 @@ def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
     return ToolPose(p.x, p.y, p.z, yaw)
 
 
-def finger_gap_from_msg(msg: JointState) -> float | None:
-    """The pads' gap: the sum of the two finger joints (docs/contracts.md); None for joint
-    states without them (the arm's alone, another publisher's). MessageError names a finger
-    joint without a finite position."""
-    if not all(n in msg.name for n in FINGER_JOINTS):
-        return None
-    gap = 0.0
-    for joint in FINGER_JOINTS:
-        k = msg.name.index(joint)
-        if k >= len(msg.position):
-            raise MessageError(f"position[{k}]", len(msg.position), f"no position for {joint}")
-        gap += finite_float(f"position[{k}]", msg.position[k])
-    return gap
+def safety_mode_from_arm(status: ArmStatusRecord) -> SafetyModeRecord:
+    """The executor's view of the arm node's status: it moves (ready), or it stands stopped
+    until it can move again (a protective stop the executor unlocks; a stopped program, lost
+    joint states, the slider at 0: the executor waits, then goes on as after a stop)."""
+    if status.ready:
+        return SafetyModeRecord("normal", "", status.stamp_ns)
+    why = status.reason if status.protective_stop else f"{status.state}: {status.reason}"
+    return SafetyModeRecord("protective_stop", why, status.stamp_ns)
 
 
 class ExecutorNode(Node):
@@ -104,16 +104,17 @@ class ExecutorNode(Node):
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
-        self.create_subscription(PoseStamped, "/tcp_pose", self.on_tcp, RELIABLE)
-        self.create_subscription(JointState, "/joint_states", self.on_joints, RELIABLE)
+        self.create_subscription(PoseStamped, "/arm/tcp_pose", self.on_tcp, RELIABLE)
         self.create_subscription(GripperStatus, "/gripper/status", self.on_gripper, RELIABLE)
-        self.create_subscription(SafetyMode, "/arm/safety_mode", self.on_safety_mode, LATCHED)
+        self.create_subscription(ArmStatus, "/arm/status", self.on_arm_status, LATCHED)
+        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_camera_info, CAMERA)
+        self.render_pub = self.create_publisher(Header, "/sim/render_request", RELIABLE)
+        self._frame_after_ns: int | None = None  # a frame taken since then is the look's
         self.placement_pub = self.create_publisher(Placement, "/executor/placements", RELIABLE)
         self.create_subscription(PlannerStatusMsg, "/planner/status", self.on_planner_status,
                                  LATCHED)
         self.create_service(Trigger, "/executor/start", self.on_start)
         self.create_service(Trigger, "/executor/stop", self.on_stop)
-        self.camera = self.create_client(Trigger, "/camera/trigger")
         self.replanner = self.create_client(Trigger, "/planner/replan")
         self.unlocker = self.create_client(Trigger, "/arm/unlock_protective_stop")
         self._last_status: ExecutorStatus | None = None
@@ -147,7 +148,7 @@ class ExecutorNode(Node):
             self.rearrange.on_detection(detection)
 
     def on_tcp(self, msg: PoseStamped) -> None:
-        pose = self._decoded(msg, tool_pose_from_msg, "/tcp_pose", (ValueError,))
+        pose = self._decoded(msg, tool_pose_from_msg, "/arm/tcp_pose", (ValueError,))
         if pose is None:
             return
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
@@ -165,24 +166,29 @@ class ExecutorNode(Node):
             with self.lock:
                 self.core.on_planner_failed(status.last_error)
 
-    def on_joints(self, msg: JointState) -> None:
-        gap = self._decoded(msg, finger_gap_from_msg, "/joint_states")
-        if gap is not None:
-            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            with self.lock:
-                self.core.on_finger_gap(gap, stamp if stamp > 0.0 else None)
-
     def on_gripper(self, msg: GripperStatus) -> None:
         status = self._decoded(msg, gripper_status_from_msg, "/gripper/status")
         if status is not None:
             with self.lock:
                 self.core.on_gripper(status)
 
-    def on_safety_mode(self, msg: SafetyMode) -> None:
-        mode = self._decoded(msg, safety_mode_from_msg, "/arm/safety_mode")
-        if mode is not None:
+    def on_arm_status(self, msg: ArmStatus) -> None:
+        status = self._decoded(msg, arm_status_from_msg, "/arm/status", (MessageError,
+                                                                         ValueError))
+        if status is not None:
             with self.lock:
-                self.core.on_safety_mode(mode)
+                self.core.on_safety_mode(safety_mode_from_arm(status))
+
+    def on_camera_info(self, msg: CameraInfo) -> None:
+        """The first frame stamped at or after the executor asked for one: the look's frame
+        is taken, the arm may move on (a streaming camera's later frames change nothing)."""
+        wanted = self._frame_after_ns
+        stamp = stamp_to_ns(msg.header.stamp)
+        if wanted is None or stamp < wanted:
+            return
+        self._frame_after_ns = None
+        with self.lock:
+            self.core.on_frame_taken(stamp)
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
@@ -211,7 +217,8 @@ class ExecutorNode(Node):
         if out.placement is not None:
             self.placement_pub.publish(placement_to_msg(out.placement))
         if out.trigger_camera:
-            self._call(self.camera, "/camera/trigger", self._on_frame_taken)
+            self._frame_after_ns = now.nanoseconds
+            self.render_pub.publish(Header(stamp=now.to_msg()))
         if out.request_replan:
             self._call(self.replanner, "/planner/replan")
         if out.unlock_arm:
@@ -247,16 +254,6 @@ class ExecutorNode(Node):
             self.get_logger().warning(f"{name} refused: {answer.message}")
         elif on_success is not None:
             on_success(answer.message)
-
-    def _on_frame_taken(self, message: str) -> None:
-        """The camera's answer names the frame's stamp (ns): the arm may move on."""
-        try:
-            stamp_ns = int(message)
-        except ValueError:
-            self.get_logger().warning(f"/camera/trigger answered {message!r}, not a stamp")
-            return
-        with self.lock:
-            self.core.on_frame_taken(stamp_ns)
 
     def _publish_status(self, status: ExecutorStatus, now) -> None:
         """On every change of state/progress, and once a second with fresh metrics."""

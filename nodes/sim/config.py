@@ -134,7 +134,7 @@ class CameraConfig:
     orientation_xyzw: tuple = param(
         [0.7095437, -0.7046074, -0.0086431, 0.001204],
         "camera_optical_frame orientation in world (true pose; x y z w)")
-    rate_hz: float = param(2.0, "image rate in simulated time (0 = only on /camera/trigger)",
+    rate_hz: float = param(2.0, "image rate in simulated time (0 = only on /sim/render_request)",
                            unit="Hz")
     noise_std: float = param(0.23, "std of the signal-independent (read) pixel noise; 0 = "
                              "none", unit="grey levels")
