@@ -16,9 +16,10 @@ controller's own small steps, and cuts what it commands into messages:
   (servoj, one position per message; rclpy's timing makes this coarser: the benchmark
   ``densepack-bench arm`` measures both).
 
-While the executor streams, the horizon never reaches past the newest setpoint's stamp plus the
-controller's servo delay, so the snippets' end, which the sim paces its clock on, follows the
-executor: the sim never outruns the commander. When the arm stands still nothing is sent.
+While the executor streams, the controller is never stepped past the point where its playback
+would need a setpoint newer than the newest (it would have to stop there), so the snippets'
+end, which the sim paces its clock on, follows the executor: the sim never outruns the
+commander. When the arm stands still nothing is sent.
 """
 
 from __future__ import annotations
@@ -84,25 +85,21 @@ class JointStreamer:
             self.newest_setpoint = stamp_s
         self._quiet = False
 
-    def _horizon(self, now: float) -> float:
-        """How far ahead to command: ``horizon_s``, but while setpoints stream no further than
-        the newest one's stamp plus the servo delay (the sim paces on the snippets' end, so it
-        then waits for the executor). Once the stream has ended (no setpoint for a stream
-        gap) the playback finishes on its own: it may lag the stamps (a slow start, the joint
-        limits, the slider) and must still reach the last setpoint."""
-        end = now + self.horizon_s
+    def _starved(self, now: float) -> bool:
+        """The playback stands on the newest setpoint while the executor still streams: no
+        command can be computed beyond it until the next setpoint comes."""
         c = self.controller
         newest = self.newest_setpoint
-        if c.playback is not None and newest is not None and now - newest <= STREAM_GAP_S:
-            end = min(end, newest + c.servo_delay_s)
-        return end
+        return (c.playback is not None and newest is not None
+                and now - newest <= STREAM_GAP_S and c.playback >= newest - 1e-9)
 
     def _advance(self, now: float, end: float) -> None:
-        """Step the controller to ``end`` (never back); keep the samples after ``now``."""
+        """Step the controller to ``end`` (never back, and no further than its playback has
+        setpoints for); keep the samples after ``now``."""
         c = self.controller
         if c.now < now - self.step_s:  # it fell behind (a pause): it cannot command the past
             c.now = now
-        while c.now + self.step_s <= end + 1e-9:
+        while c.now + self.step_s <= end + 1e-9 and not self._starved(now):
             q, v = c.step(self.step_s)
             self._samples.append((c.now, q, v))
             if any(abs(x) > AT_REST_RAD * 1e3 for x in v):
@@ -111,7 +108,7 @@ class JointStreamer:
 
     def snippet(self, now: float) -> TrajectorySnippet | None:
         """The trajectory to send at ``now`` (s), or None: nothing to move."""
-        self._advance(now, self._horizon(now))
+        self._advance(now, now + self.horizon_s)
         if not self._samples:
             return None
         moving = not self.controller.settled or any(
@@ -136,12 +133,17 @@ class JointStreamer:
                 due = sample[0] + self.point_spacing_s
         if not picked or picked[-1] is not self._samples[-1]:
             picked.append(self._samples[-1])
+        last_t, last_q, _ = picked[-1]
+        if last_t < now + self.point_spacing_s - 1e-9:
+            # The setpoints lag (a starved stream): end a spacing ahead, at rest where the
+            # playback stands, so the snippet has not ended by the time it arrives.
+            picked.append((now + self.point_spacing_s, last_q, np.zeros_like(last_q)))
         return picked
 
     def position(self, now: float, period_s: float) -> np.ndarray:
         """The joints commanded ``period_s`` from ``now``, for a forward position command."""
         target = now + period_s
-        self._advance(now, min(self._horizon(now), target))
+        self._advance(now, target)
         if not self._samples:
             return self.controller.q_cmd.copy()
         best = min(self._samples, key=lambda s: abs(s[0] - target))

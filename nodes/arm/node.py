@@ -54,6 +54,8 @@ class ArmNode(Node):
         self.lock = threading.Lock()  # the core is touched by callbacks of several threads
         self._status_sent: tuple | None = None
         self._status_at = 0.0
+        self._ticked_at = -1.0  # node clock (s) of the last tick
+        self._tick_lock = threading.Lock()
         inputs = ReentrantCallbackGroup()
         ticks = MutuallyExclusiveCallbackGroup()
         # the executor's side
@@ -83,7 +85,7 @@ class ArmNode(Node):
         self.dashboard = {call: self.create_client(Trigger, drivers.dashboard_service(call),
                                                    callback_group=inputs)
                           for call in drivers.DASHBOARD_TRIGGERS}
-        self.create_timer(1.0 / self.config.command_rate_hz, self.tick, callback_group=ticks)
+        self.create_timer(1.0 / self.config.command_rate_hz, self.on_timer, callback_group=ticks)
         self.get_logger().info(
             f"arm node: setpoints -> {self.config.command_interface} commands on "
             f"{self.pub_command.topic_name} at {self.config.command_rate_hz:.0f} Hz")
@@ -130,6 +132,11 @@ class ArmNode(Node):
             self.get_logger().warning(
                 f"setpoint {[round(v, 4) for v in position]} refused, the arm holds: "
                 f"{result.reason}", throttle_duration_sec=1.0)
+            return
+        # A new setpoint lengthens what the arm can be commanded: send it now, not at the
+        # next tick of the clock, so the driver's trajectory never runs short while the
+        # executor streams (the sim waits for it; a real arm would slow down).
+        self.tick(min_gap=0.5 / self.config.command_rate_hz)
 
     def on_unlock(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
@@ -137,13 +144,23 @@ class ArmNode(Node):
         return response
 
     # --- the tick -------------------------------------------------------------------------------
-    def tick(self) -> None:
-        now = self._now()
-        with self.lock:
-            out = self.core.tick(now)
-            status = self.core.status(round(now * 1e9))
-        self._send(out, now)
-        self._publish_status(status, now)
+    def tick(self, min_gap: float = 0.0) -> None:
+        """One command to the driver (on the timer, and on each setpoint), at most one per
+        ``min_gap`` of the node's clock."""
+        with self._tick_lock:
+            now = self._now()
+            if now - self._ticked_at < min_gap:
+                return
+            self._ticked_at = now
+            with self.lock:
+                out = self.core.tick(now)
+                status = self.core.status(round(now * 1e9))
+            self._send(out, now)
+            self._publish_status(status, now)
+
+    def on_timer(self) -> None:
+        """The clock's tick: settling, pausing and waiting go on without setpoints."""
+        self.tick(min_gap=0.75 / self.config.command_rate_hz)
 
     def _send(self, out: ArmOutputs, now: float) -> None:
         for line in out.log:

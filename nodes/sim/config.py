@@ -31,10 +31,11 @@ class SimConfig:
         1.0, "pacing floor: simulated time never runs slower than this many seconds per wall "
         "second (0 = no floor)")
     lockstep_margin_s: float = param(
-        0.02, "while motion commands come, the sim runs as fast as it can but stays this far "
+        0.03, "while motion commands come, the sim runs as fast as it can but stays this far "
         "(simulated time) behind the end of the newest one (a trajectory's last point, which "
-        "the arm node keeps within its horizon of the executor's newest setpoint), so it never "
-        "outruns the nodes that command it; 0 = pace by real_time_factor alone", unit="s")
+        "the arm node keeps within its horizon of the executor's newest setpoint), and waits "
+        "there while that command moves the arm, so it never outruns the nodes that command "
+        "it; 0 = pace by real_time_factor alone", unit="s")
     motion_controller: str = param(
         "scaled_joint_trajectory_controller", "the active motion controller, as "
         "ur_robot_driver's initial_joint_controller: scaled_joint_trajectory_controller "

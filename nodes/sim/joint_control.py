@@ -58,6 +58,12 @@ class Trajectory:
     start_s: float  #: its stamp (s); 0: start when first sampled
     points: tuple[TrajectoryPoint, ...]
 
+    @property
+    def moves(self) -> bool:
+        """Its points do not all hold one position (a commander mid-motion sent it)."""
+        first = self.points[0].positions
+        return any(float(np.max(np.abs(p.positions - first))) > 1e-9 for p in self.points)
+
 
 def _per_joint(values: Sequence[float], joint_count: int, what: str, index: int,
                allow_empty: bool) -> str:
@@ -195,12 +201,13 @@ class TrajectoryController:
         """A trajectory is being played (not holding after its last point)."""
         return self._current is not None or self._pending is not None
 
-    def ends_at(self, now: float) -> float | None:
-        """When the trajectory playing (or about to) reaches its last point (s, unscaled)."""
+    def ends_at(self, now: float) -> tuple[float, bool] | None:
+        """When the trajectory playing (or about to) reaches its last point (s, unscaled),
+        and whether it moves the arm; None: none."""
         traj = self._pending or self._current
         if traj is None:
             return None
-        return (traj.start_s or now) + traj.points[-1].time_from_start
+        return (traj.start_s or now) + traj.points[-1].time_from_start, traj.moves
 
     def update(self, now: float, dt: float, scaling: float, q_measured: np.ndarray,
                v_measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

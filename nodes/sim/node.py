@@ -185,8 +185,13 @@ class SimNode(Node):
                 self.get_logger().error(f"{drivers.TRAJECTORY_TOPIC}: {error}",
                                         throttle_duration_sec=1.0)
                 return
-            self.pacer.on_command(self.world.commanded_until())
+            self._paced()
         self._queue(apply)
+
+    def _paced(self) -> None:
+        commanded = self.world.commanded_until()
+        if commanded is not None:
+            self.pacer.on_command(*commanded)
 
     def _on_positions(self, msg: Float64MultiArray) -> None:
         values = [float(v) for v in msg.data]
@@ -197,7 +202,7 @@ class SimNode(Node):
                 self.get_logger().error(f"{drivers.FORWARD_POSITION_TOPIC}: {error}",
                                         throttle_duration_sec=1.0)
                 return
-            self.pacer.on_command(self.world.commanded_until())
+            self._paced()
         self._queue(apply)
 
     def _on_knuckle(self, msg: Float64MultiArray) -> None:

@@ -1,29 +1,44 @@
 """How fast simulated time runs: lockstep with the motion commands, else a real-time floor.
 
 A real cell's time runs on whatever happens. In the sim, time can run faster than the wall
-clock, but only as fast as the nodes that act on it keep up: while motion commands come (joint
-trajectories from the arm node, each ending a short horizon after the executor's newest
-setpoint), the sim may run as fast as it can up to ``margin`` before the end of the newest
-one, however fast or slow the machine is (lockstep: the arm node and, through it, the executor
-are never outrun). When no command is in force (the executor waits for a detection, or for a
-plan: work whose duration is the machine's, not the robot's), simulated time passes at
-``real_time_factor`` against the wall clock, as the real robot's would while it waits.
-``real_time_factor`` 0 lets it run free, lockstep or not (nothing then keeps it from
-outrunning the commanders).
+clock, but only as fast as the nodes that act on it keep up. Motion commands (joint trajectory
+snippets from the arm node, each ending a short horizon after the executor's newest setpoint)
+say what the arm does until their end:
+
+* while the newest command moves the arm, the sim runs as fast as it can up to ``margin``
+  before its end, and there waits for the next one (lockstep: the arm node and, through it,
+  the executor are never outrun, however loaded the machine; a real arm is given its next
+  piece of trajectory in time). A commander that sends nothing for ``stall_wall_s`` of wall
+  time has stopped: the floor below applies again.
+* when the newest command holds the arm still, or there is none (the executor waits for a
+  detection or a plan: work whose duration is the machine's, not the robot's), simulated
+  time passes at ``real_time_factor`` against the wall clock, as the real robot's would.
+
+``real_time_factor`` 0 lets it run free (nothing then keeps it from outrunning the
+commanders).
 """
 
 from __future__ import annotations
 
 import time
 
+#: A commander mid-motion that sends nothing this long (wall s) has stopped.
+STALL_WALL_S = 0.5
+#: While waiting for a commander, look again this often (wall s).
+LOCKSTEP_POLL_S = 0.002
+
 
 class Pacer:
     """Decides whether the sim may take its next physics step, and how long to wait if not."""
 
-    def __init__(self, real_time_factor: float, margin: float) -> None:
+    def __init__(self, real_time_factor: float, margin: float,
+                 stall_wall_s: float = STALL_WALL_S) -> None:
         self.real_time_factor = float(real_time_factor)
         self.margin = float(margin)
+        self.stall_wall_s = float(stall_wall_s)
         self.commanded_until: float | None = None
+        self.moving = False  #: the newest command moves the arm
+        self._command_wall: float | None = None
         self._wall0 = 0.0
         self._sim0 = 0.0
         self._started = False
@@ -35,20 +50,32 @@ class Pacer:
         self._started = True
         if self.commanded_until is not None and self.commanded_until > sim_time + 1.0:
             self.commanded_until = None  # from before a reset
+            self.moving = False
 
-    def on_command(self, until: float | None) -> None:
+    def on_command(self, until: float | None, moving: bool = True,
+                   wall_time: float | None = None) -> None:
         """A motion command arrived that says what to do up to ``until`` (simulated s)."""
-        if until is not None and (self.commanded_until is None or until > self.commanded_until):
+        if until is None:
+            return
+        self._command_wall = time.monotonic() if wall_time is None else wall_time
+        if self.commanded_until is None or until >= self.commanded_until:
             self.commanded_until = until
+            self.moving = moving
 
     def wait_before_step(self, sim_time: float, wall_time: float) -> float:
         """Wall seconds to wait before stepping from ``sim_time`` (0: step now)."""
         if not self._started:
             self.restart(sim_time, wall_time)
-        if (self.margin > 0.0 and self.commanded_until is not None
-                and sim_time < self.commanded_until - self.margin):
-            self.restart(sim_time, wall_time)  # lockstep progress: the floor counts from here
-            return 0.0
+        until = self.commanded_until
+        if self.margin > 0.0 and until is not None:
+            if sim_time < until - self.margin:
+                self.restart(sim_time, wall_time)  # lockstep progress: the floor counts from here
+                return 0.0
+            stalled = (self._command_wall is None
+                       or wall_time - self._command_wall > self.stall_wall_s)
+            if self.moving and not stalled:
+                self.restart(sim_time, wall_time)
+                return LOCKSTEP_POLL_S  # the arm is mid-motion: its next command is due
         if self.real_time_factor <= 0.0:
             return 0.0
         ahead = (sim_time - self._sim0) / self.real_time_factor - (wall_time - self._wall0)

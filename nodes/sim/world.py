@@ -249,13 +249,14 @@ class SimWorld:
             return "the robot program is not running: the command is not executed"
         return self.motion.receive(values, self.time_s)
 
-    def commanded_until(self) -> float | None:
-        """Until when (simulated s) the motion commands received say what to do: the end of
-        the trajectory playing, or a while after the newest forward command (pacing)."""
+    def commanded_until(self) -> tuple[float, bool] | None:
+        """Until when (simulated s) the motion commands received say what to do, and whether
+        they move the arm (pacing): the end of the trajectory playing, or a while after the
+        newest forward command."""
         if isinstance(self.motion, TrajectoryController):
             return self.motion.ends_at(self.time_s)
         at = self.motion.last_command_at
-        return None if at is None else at + FORWARD_COMMAND_S
+        return None if at is None else (at + FORWARD_COMMAND_S, self.motion.active)
 
     def dashboard(self, command: str) -> DashboardAnswer:
         """A dashboard call (``unlock_protective_stop``, ``stop``, ``play`` ...)."""

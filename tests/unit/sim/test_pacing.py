@@ -4,41 +4,47 @@ from __future__ import annotations
 
 import pytest
 
-from nodes.sim.pacing import Pacer
+from nodes.sim.pacing import LOCKSTEP_POLL_S, Pacer
 
 
 def test_without_commands_time_follows_the_real_time_factor():
-    pacer = Pacer(real_time_factor=2.0, margin=0.02)
+    pacer = Pacer(real_time_factor=2.0, margin=0.03)
     pacer.restart(0.0, wall_time=100.0)
     assert pacer.wait_before_step(0.0, 100.0) == 0.0
     assert pacer.wait_before_step(1.0, 100.0) == pytest.approx(0.5)  # 1 sim s = 0.5 wall s
     assert pacer.wait_before_step(1.0, 100.5) == pytest.approx(0.0)
 
 
-def test_while_commands_come_it_runs_free_but_never_outruns_the_newest_one():
-    pacer = Pacer(real_time_factor=1.0, margin=0.02)
+def test_while_the_arm_moves_the_sim_waits_for_its_next_command():
+    pacer = Pacer(real_time_factor=1.0, margin=0.03)
     pacer.restart(0.0, wall_time=100.0)
-    pacer.on_command(5.08)
-    assert pacer.wait_before_step(5.05, 100.0) == 0.0  # 5 s ahead of the wall: lockstep
-    # the commander is behind: time goes on only at the real-time rate from where it stopped
-    assert pacer.wait_before_step(5.07, 100.0) == pytest.approx(0.02, abs=1e-9)
-    pacer.on_command(5.18)
-    assert pacer.wait_before_step(5.07, 100.001) == 0.0
-    pacer.on_command(4.0)  # an older stamp changes nothing
-    assert pacer.commanded_until == 5.18
+    pacer.on_command(5.08, moving=True, wall_time=100.0)
+    assert pacer.wait_before_step(5.04, 100.0) == 0.0  # 5 s ahead of the wall: lockstep
+    assert pacer.wait_before_step(5.05, 100.01) == LOCKSTEP_POLL_S  # its next piece is due
+    pacer.on_command(5.18, moving=True, wall_time=100.02)
+    assert pacer.wait_before_step(5.05, 100.02) == 0.0
+    pacer.on_command(4.0, moving=False, wall_time=100.03)  # an older one changes nothing
+    assert pacer.commanded_until == 5.18 and pacer.moving
 
 
-def test_stalled_commands_fall_back_to_real_time_from_where_it_stalled():
-    pacer = Pacer(real_time_factor=1.0, margin=0.02)
+def test_a_command_that_holds_still_lets_time_pass_at_the_floor():
+    pacer = Pacer(real_time_factor=1.0, margin=0.03)
     pacer.restart(0.0, wall_time=100.0)
-    pacer.on_command(5.08)
+    pacer.on_command(5.08, moving=False, wall_time=100.0)
     assert pacer.wait_before_step(5.0, 100.0) == 0.0
-    # nothing new for a wall second: time goes on at the real-time rate from 5.0 s
-    assert pacer.wait_before_step(5.07, 100.0) > 0.0
-    assert pacer.wait_before_step(5.5, 101.0) == 0.0
-    assert pacer.wait_before_step(6.5, 101.0) == pytest.approx(0.5, abs=1e-9)
+    assert pacer.wait_before_step(5.07, 100.0) == pytest.approx(0.07, abs=1e-9)  # from 5.0 s
+
+
+def test_a_commander_that_stops_mid_motion_falls_back_to_the_floor():
+    pacer = Pacer(real_time_factor=1.0, margin=0.03, stall_wall_s=0.5)
+    pacer.restart(0.0, wall_time=100.0)
+    pacer.on_command(5.08, moving=True, wall_time=100.0)
+    assert pacer.wait_before_step(5.06, 100.2) == LOCKSTEP_POLL_S
+    # nothing for more than the stall time: time goes on at the real-time rate
+    assert pacer.wait_before_step(5.06, 100.7) == 0.0
+    assert pacer.wait_before_step(6.5, 100.7) > 0.0
 
 
 def test_a_zero_factor_runs_free():
-    pacer = Pacer(real_time_factor=0.0, margin=0.02)
+    pacer = Pacer(real_time_factor=0.0, margin=0.03)
     assert pacer.wait_before_step(123.0, 0.0) == 0.0
