@@ -10,7 +10,7 @@ import uuid
 
 import pytest
 from action_msgs.msg import GoalStatus
-from densepack_interfaces.msg import BlockPoseArray, GoalLayout
+from densepack_interfaces.msg import ArmStatus, BlockPoseArray, GoalLayout, GripperStatus
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
@@ -18,14 +18,15 @@ from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
+from sensor_msgs.msg import CameraInfo
+from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Scene
 from msgs_py import interface_codecs as ic
+from msgs_py.ros_codecs import ns_to_stamp
 from msgs_py.scene import Workspace
-from nodes.common.qos import LATCHED, RELIABLE
+from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.executor.node import ExecutorNode, tool_pose_from_msg
 from tests.actions import Goals, wait_future
 
@@ -37,20 +38,22 @@ WORKSPACE = Workspace(0.45, 0.95, -0.35, 0.35)
 
 
 class FakeCell(Node):
-    """Tracks setpoints perfectly; a closed gripper low over a block carries it; the camera
-    publishes the blocks when triggered."""
+    """Tracks setpoints perfectly (the arm node's /arm/tcp_pose); a closed gripper low over a
+    block carries it; asked for a frame (the sim's /sim/render_request), the camera takes one
+    (camera_info) and the detector publishes the blocks."""
 
     def __init__(self, **kwargs):
         super().__init__("fake_cell", **kwargs)
         self.blocks = dict(START)
         self.tcp = None
         self.held = None
-        self.tcp_pub = self.create_publisher(PoseStamped, "/tcp_pose", RELIABLE)
+        self.tcp_pub = self.create_publisher(PoseStamped, "/arm/tcp_pose", RELIABLE)
         self.det_pub = self.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
+        self.info_pub = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self.on_setpoint,
                                  RELIABLE)
         self.create_subscription(Float64, "/gripper/command", self.on_gripper, RELIABLE)
-        self.create_service(Trigger, "/camera/trigger", self.on_trigger)
+        self.create_subscription(Header, "/sim/render_request", self.on_render_request, RELIABLE)
         self.create_timer(0.01, self.publish_tcp)
         self.triggers = 0
 
@@ -81,13 +84,14 @@ class FakeCell(Node):
             self.blocks[self.held] = Pose2D(p.x, p.y, goal_yaw)
             self.held = None
 
-    def on_trigger(self, request, response):
+    def on_render_request(self, msg):
         self.triggers += 1
         stamp = self.get_clock().now().nanoseconds
+        info = CameraInfo()
+        info.header.stamp = ns_to_stamp(stamp)
+        self.info_pub.publish(info)
         blocks = tuple(BlockPose(i, p.x, p.y, p.theta) for i, p in self.blocks.items())
         self.det_pub.publish(ic.block_set_to_msg(BlockSet(blocks, stamp)))
-        response.success, response.message = True, str(stamp)
-        return response
 
 
 class FakePlanner(Node):
@@ -184,18 +188,21 @@ def test_malformed_messages_on_every_subscribed_topic_do_not_kill_the_executor(r
     bad_status = ic.planner_status_to_msg(ic.PlannerStatus("failed"))
     bad_status.state = 42
     ros.publisher("/planner/status", PlannerStatusMsg, LATCHED).publish(bad_status)
-    tcp = ros.publisher("/tcp_pose", PoseStamped, RELIABLE)
+    tcp = ros.publisher("/arm/tcp_pose", PoseStamped, RELIABLE)
     ros.wait_for_subscribers(tcp)
     nan_pose = PoseStamped()
     nan_pose.pose.orientation.w = math.nan
     tcp.publish(nan_pose)
-    joints = ros.publisher("/joint_states", JointState, RELIABLE)
-    ros.wait_for_subscribers(joints)
-    joints.publish(JointState(name=["left_finger_joint", "right_finger_joint"], position=[0.1]))
+    arm = ros.publisher("/arm/status", ArmStatus, LATCHED)
+    ros.wait_for_subscribers(arm)
+    arm.publish(ArmStatus(state=99))
+    gripper = ros.publisher("/gripper/status", GripperStatus, RELIABLE)
+    ros.wait_for_subscribers(gripper)
+    gripper.publish(GripperStatus(gap=math.inf))
     wait_logged(logged, ["malformed /plan: actions[1].type", "malformed /blocks/detected: "
                          "missing_ids[0]", "malformed /planner/status: state",
-                         "malformed /tcp_pose: pose.orientation.w",
-                         "malformed /joint_states: position[1]"])
+                         "malformed /arm/tcp_pose: pose.orientation.w",
+                         "malformed /arm/status: state", "malformed /gripper/status: gap"])
     wait_status(ros, "idle", timeout=20)
     answer = ros.call_service("/executor/stop", Trigger)
     assert answer.success

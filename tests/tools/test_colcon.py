@@ -40,7 +40,8 @@ def expected_executables() -> list[str]:
     names = {"goal": "nodes/tools/goal.py", "echo": "nodes/tools/echo.py",
              "cell": "nodes/tools/cell.py", "sim": "nodes/sim/node.py",
              "detector": "nodes/detector/node.py", "planner": "nodes/planner/node.py",
-             "executor": "nodes/executor/node.py"}
+             "executor": "nodes/executor/node.py", "arm": "nodes/arm/node.py",
+             "gripper": "nodes/gripper/node.py"}
     return [name for name, path in names.items() if (REPO / path).exists()]
 
 
@@ -50,6 +51,8 @@ def test_colcon_installs_every_node_under_lib_densepack(colcon_install):
         assert (lib / name).is_file(), f"{name} missing from {sorted(os.listdir(lib))}"
     share = colcon_install / "share" / "densepack"
     assert (share / "config" / "cell.yaml").is_file()
+    assert (share / "config" / "real" / "cell.yaml").is_file()
+    assert (share / "launch" / "cell.launch.py").is_file()
     assert (share / "package.xml").is_file()
 
 

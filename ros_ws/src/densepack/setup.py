@@ -17,6 +17,8 @@ EXECUTABLES = {
     "detector": "nodes.detector.node:main",
     "planner": "nodes.planner.node:main",
     "executor": "nodes.executor.node:main",
+    "arm": "nodes.arm.node:main",
+    "gripper": "nodes.gripper.node:main",
     "goal": "nodes.tools.goal:main",
     "calibrate": "nodes.detector.calibrate_cli:main",
     "plan": "nodes.planner.cli:main",
@@ -35,6 +37,8 @@ def _data_files() -> list[tuple[str, list[str]]]:
     files = [
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
+        ("share/" + PACKAGE + "/launch", sorted(str(p.relative_to(HERE))
+                                               for p in (HERE / "launch").glob("*.py"))),
     ]
     for top in ("config", "sim_assets"):
         for path in sorted((HERE / top).rglob("*")):
