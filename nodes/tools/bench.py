@@ -24,6 +24,7 @@ from typing import Any
 
 SUITES = {
     "sim": "nodes.bench.sim",
+    "arm": "nodes.bench.arm",
     "perception": "nodes.detector.bench",
     "planner": "nodes.planner.bench",
     "cell": "nodes.tools.cell_bench",
