@@ -59,6 +59,9 @@ class DriverStandIn(Node):
         self.object_width = object_width
         self.safety, self.program = SafetyMode.NORMAL, True
         self.refused: list[str] = []
+        self.joint_states = True  #: tests turn the arm's joint states off ...
+        self.dropped_joint: str | None = None  #: ... or drop one joint from them
+        self.speed_percent = 100.0
         self.pub_clock = self.create_publisher(Clock, "/clock", RELIABLE)
         self.pub_joints = self.create_publisher(JointState, drivers.JOINT_STATES, RELIABLE)
         self.pub_knuckle = self.create_publisher(JointState, drivers.GRIPPER_JOINT_STATES,
@@ -171,12 +174,14 @@ class DriverStandIn(Node):
             if step > 0 else self.knuckle + step
         stamp = ns_to_stamp(round(self.t * 1e9))
         self.pub_clock.publish(Clock(clock=stamp))
-        order = [ur10e.ARM_JOINTS.index(n) for n in BROADCAST_ORDER]
-        self.pub_joints.publish(joint_state_msg(stamp, BROADCAST_ORDER, self.q[order],
-                                                np.zeros(6)))
+        names = [n for n in BROADCAST_ORDER if n != self.dropped_joint]
+        order = [ur10e.ARM_JOINTS.index(n) for n in names]
+        if self.joint_states:
+            self.pub_joints.publish(joint_state_msg(stamp, names, self.q[order],
+                                                    np.zeros(len(names))))
         self.pub_knuckle.publish(joint_state_msg(stamp, [g85.KNUCKLE_JOINT], [self.knuckle],
                                                  [0.0]))
         tcp = tcp_pose(self.q)
         self.pub_tcp.publish(pose_stamped_msg(stamp, tcp[:3, 3],
                                               matrix_to_quaternion(tcp[:3, :3]), "base"))
-        self.pub_speed.publish(Float64(data=100.0))
+        self.pub_speed.publish(Float64(data=self.speed_percent))
