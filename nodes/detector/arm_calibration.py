@@ -276,7 +276,7 @@ class ArmCalibration:
         placing, self._placing, self._release = self._placing, None, None
         assert placing is not None
         if self.tcp is None:
-            self._fail("no /tcp_pose measurement when the block was released")
+            self._fail("no /arm/tcp_pose measurement when the block was released")
             return
         placing.tcp = self.tcp
         self.current = placing
@@ -315,7 +315,7 @@ class ArmCalibration:
     def _start_moving(self, steps: list[Step]) -> None:
         start = self.commanded or self.tcp
         if start is None:
-            self._fail("no /tcp_pose measurement: cannot start moving")
+            self._fail("no /arm/tcp_pose measurement: cannot start moving")
             return
         self.runner = StepRunner(steps, start, self.cfg.convergence_tol,
                                  self.cfg.convergence_timeout_s, self.cfg.in_safe_box)

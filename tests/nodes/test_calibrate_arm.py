@@ -1,5 +1,6 @@
-"""densepack-calibrate mode arm against the sim node, in-process: the arm sets one block down
-at known placements and the camera pose, 5 mm / 0.5 deg off to start with, is recovered."""
+"""densepack-calibrate mode arm against the sim node (through the arm and gripper nodes, as on
+a real cell), in-process: the arm sets one block down at known placements and the camera pose,
+5 mm / 0.5 deg off to start with, is recovered."""
 
 from __future__ import annotations
 
@@ -11,9 +12,11 @@ import pytest
 from rclpy.parameter import Parameter
 
 from msgs_py.camera import CameraPose
+from nodes.arm.node import ArmNode
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
 from nodes.detector.calibrate_cli import CalibrateNode
 from nodes.detector.camera_model import CameraModel, load_camera_pose, save_camera_pose
+from nodes.gripper.node import GripperNode
 from nodes.sim.config import CameraConfig
 from nodes.sim.node import SimNode
 
@@ -50,6 +53,9 @@ def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_p
     ros.add(SimNode(context=ros.context, parameter_overrides=[
         Parameter("scene_file", value="scenes/calibration_arm.yaml"),
         Parameter("camera.rate_hz", value=0.0)]))
+    sim_time = [Parameter("use_sim_time", value=True)]
+    ros.add(ArmNode(context=ros.context, parameter_overrides=sim_time))
+    ros.add(GripperNode(context=ros.context, parameter_overrides=sim_time))
     node = ros.add(CalibrateNode(context=ros.context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("mode", value="arm"),
         Parameter("calibration_file", value=str(start)),
