@@ -14,7 +14,8 @@ from tests.helpers import REPO
 README = (REPO / "README.md").read_text()
 NODES = (REPO / "docs" / "nodes.md").read_text()
 NODE_MODULES = ["nodes.sim.node", "nodes.detector.node", "nodes.planner.node",
-                "nodes.executor.node", "nodes.tools.goal"]
+                "nodes.executor.node", "nodes.arm.node", "nodes.gripper.node",
+                "nodes.tools.goal"]
 
 
 def section(name: str) -> str:
