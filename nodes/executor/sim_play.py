@@ -23,6 +23,13 @@ def tool_pose(world: SimWorld) -> ToolPose:
     return ToolPose(*p, yaw_of_matrix(quaternion_to_matrix(q)))
 
 
+def commanded_pose(world: SimWorld) -> ToolPose:
+    """Where the arm was last told to go: a script starts there, as the executor's does (not
+    from the measured TCP, which lags the stream: starting there would turn it back)."""
+    t = world.commanded_tcp()
+    return ToolPose(*t[:3, 3], yaw_of_matrix(t[:3, :3]))
+
+
 def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
          on_label: Callable[[SimWorld, str], None] = lambda w, label: None,
          on_tick: Callable[[SimWorld], None] = lambda w: None,
@@ -33,7 +40,7 @@ def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
     ``on_label`` is called when a new step starts, ``on_tick`` every tick (fault injection,
     measurements). A stalled opening goes to ``on_stall`` (which may ``retry_current``), or
     is an error without it. ``limit_s`` of simulated time not finished is an error too."""
-    runner = StepRunner(steps, tool_pose(world), cfg.convergence_tol,
+    runner = StepRunner(steps, commanded_pose(world), cfg.convergence_tol,
                         cfg.convergence_timeout_s, cfg.in_safe_box)
     period = round(world.config.physics_rate_hz / cfg.rate_hz)
     t_end = world.time_s + limit_s
