@@ -17,8 +17,9 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-#: Interface packages outside the typestore's own ROS 2 Jazzy set, learnt from their .msg files.
-OWN_INTERFACE_PACKAGES = ("densepack_interfaces",)
+#: Interface packages outside the typestore's own ROS 2 Jazzy set, learnt from their .msg files:
+#: the cell's own, and the UR driver's (its topics are recorded too).
+OWN_INTERFACE_PACKAGES = ("densepack_interfaces", "ur_dashboard_msgs")
 #: Queue of a recording or viewing subscription: bursts (a plan, markers) must not be dropped.
 RECORD_DEPTH = 100
 

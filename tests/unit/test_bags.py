@@ -76,3 +76,12 @@ def test_qos_is_matched_on_record_and_kept_on_replay():
 def test_hidden_topics_are_action_internals():
     assert bags.is_hidden("/rearrange/_action/feedback")
     assert not bags.is_hidden("/camera/image_raw/compressed")
+
+
+def test_the_drivers_types_are_known_to_the_recorder():
+    """The sim records the UR driver's safety and robot modes: a bag must hold them."""
+    store = bags.typestore()
+    for name in ("ur_dashboard_msgs/msg/SafetyMode", "ur_dashboard_msgs/msg/RobotMode"):
+        assert name in store.types
+        assert "uint8 mode" in bags.message_definition(name) or "int8 mode" in (
+            bags.message_definition(name))
