@@ -133,10 +133,12 @@ class JointStreamer:
                 due = sample[0] + self.point_spacing_s
         if not picked or picked[-1] is not self._samples[-1]:
             picked.append(self._samples[-1])
-        last_t, last_q, _ = picked[-1]
-        if last_t < now + self.point_spacing_s - 1e-9:
-            # The setpoints lag (a starved stream): end a spacing ahead, at rest where the
-            # playback stands, so the snippet has not ended by the time it arrives.
+        last_t, last_q, last_v = picked[-1]
+        if last_t < now + self.horizon_s - 1e-9 and not np.any(last_v):
+            # The playback stands still (a starved stream, or at the end of a move): hold there
+            # to the horizon, so the snippet has not ended by the time it arrives late.
+            picked.append((now + self.horizon_s, last_q, np.zeros_like(last_q)))
+        elif last_t < now + self.point_spacing_s - 1e-9:
             picked.append((now + self.point_spacing_s, last_q, np.zeros_like(last_q)))
         return picked
 
