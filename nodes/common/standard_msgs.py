@@ -12,6 +12,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from msgs_py import MessageError
 from msgs_py.checks import finite_float
+from nodes.common.transforms import quaternion_to_matrix, yaw_of_matrix
 
 
 def pose_from_msg(msg: PoseStamped) -> tuple[list[float], list[float], str]:
@@ -80,3 +81,13 @@ def trajectory_values(msg: JointTrajectory) -> tuple[list[str], float, list[tupl
     points = [(p.time_from_start.sec + p.time_from_start.nanosec * 1e-9, list(p.positions),
                list(p.velocities), list(p.accelerations), list(p.effort)) for p in msg.points]
     return list(msg.joint_names), stamp_seconds(msg.header.stamp), points
+
+
+def tool_pose_values(msg: PoseStamped) -> tuple[float, float, float, float]:
+    """(x, y, z, yaw) of a measured gripper-down TCP (yaw: the closing axis in the table
+    plane); MessageError names a non-finite field."""
+    p, q = msg.pose.position, msg.pose.orientation
+    for name, part in (("position", p), ("orientation", q)):
+        for axis in ("x", "y", "z", "w") if name == "orientation" else ("x", "y", "z"):
+            finite_float(f"pose.{name}.{axis}", getattr(part, axis))
+    return p.x, p.y, p.z, yaw_of_matrix(quaternion_to_matrix((q.x, q.y, q.z, q.w)))

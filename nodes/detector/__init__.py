@@ -5,5 +5,5 @@ Pure logic (no rclpy): ``tag_geometry`` (where a tag's corners sit on a block),
 tags and refining their corners), ``estimate`` (corners -> block pose, by method name),
 ``pipeline`` (one image -> a ``BlockSet``), ``sync`` (image / camera_info pairing),
 ``calibration`` (camera pose from tags at known poses), ``synthetic`` (test images).
-ROS adapters: ``node`` (``densepack-detector``) and ``calibrate_cli`` (``densepack-calibrate``).
+ROS adapter: ``node`` (``densepack-detector``); the camera pose calibration: ``nodes.calibration``.
 """

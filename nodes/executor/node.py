@@ -32,7 +32,6 @@ from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from msgs_py import ExecutorStatus, MessageError
-from msgs_py.checks import finite_float
 from msgs_py.interface_codecs import (
     arm_status_from_msg,
     block_set_from_msg,
@@ -48,7 +47,8 @@ from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
-from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
+from nodes.common.standard_msgs import tool_pose_values
+from nodes.common.transforms import tool_down_quaternion
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
@@ -75,12 +75,7 @@ calls:      /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger)"""
 
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
     """The measured TCP; MessageError names a non-finite field."""
-    p, q = msg.pose.position, msg.pose.orientation
-    for name, part in (("position", p), ("orientation", q)):
-        for axis in ("x", "y", "z", "w") if name == "orientation" else ("x", "y", "z"):
-            finite_float(f"pose.{name}.{axis}", getattr(part, axis))
-    yaw = yaw_of_matrix(quaternion_to_matrix((q.x, q.y, q.z, q.w)))
-    return ToolPose(p.x, p.y, p.z, yaw)
+    return ToolPose(*tool_pose_values(msg))
 
 
 def safety_mode_from_arm(status: ArmStatusRecord) -> SafetyModeRecord:

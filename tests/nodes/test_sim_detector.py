@@ -11,9 +11,9 @@ from rclpy.parameter import Parameter
 
 from msgs_py.interface_codecs import block_set_from_msg
 from msgs_py.ros_codecs import stamp_to_ns
+from nodes.calibration.cli import CalibrateNode
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
-from nodes.detector.calibrate_cli import CalibrateNode
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.node import DetectorNode
 from nodes.sim.node import SimNode

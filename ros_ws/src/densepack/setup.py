@@ -20,7 +20,7 @@ EXECUTABLES = {
     "arm": "nodes.arm.node:main",
     "gripper": "nodes.gripper.node:main",
     "goal": "nodes.tools.goal:main",
-    "calibrate": "nodes.detector.calibrate_cli:main",
+    "calibrate": "nodes.calibration.cli:main",
     "plan": "nodes.planner.cli:main",
     "echo": "nodes.tools.echo:main",
     "cell": "nodes.tools.cell:main",

@@ -7,9 +7,9 @@ import dataclasses
 import pytest
 import yaml
 
+from nodes.calibration.cli import CalibrateConfig
 from nodes.common.params import config_overrides
 from nodes.common.paths import config_path
-from nodes.detector.calibrate_cli import CalibrateConfig
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 

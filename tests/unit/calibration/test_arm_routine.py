@@ -8,7 +8,7 @@ import math
 import pytest
 
 from msgs_py import BlockPose
-from nodes.detector.arm_calibration import ArmCalibration, ArmRoutineConfig, Phase, snap_yaw
+from nodes.calibration.arm_routine import ArmCalibration, ArmRoutineConfig, Phase, snap_yaw
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
 from nodes.executor.steps import Grip

@@ -6,7 +6,7 @@ Two modes (``mode``):
   ``config/scenes/calibration.yaml`` by default, the same file the sim can load as its
   scene. The tool pools the tag corners of ``frames`` camera frames.
 * ``arm``: the arm itself sets one block down at ``arm.placements`` spread over the
-  workspace (``nodes.detector.arm_calibration``: it first re-grips the block with the
+  workspace (``nodes.calibration.arm_routine``: it first re-grips the block with the
   closing axis turned 90 degrees, so the block sits on the TCP), takes ``arm.frames`` frames
   at each with the arm out of view, and pools those. It streams the executor's own step
   scripts on ``/arm/cartesian_setpoint`` and ``/gripper/command`` (stamped on ROS time: run
@@ -40,20 +40,20 @@ from msgs_py import MessageError, load_scene
 from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
 from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
 from msgs_py.ros_codecs import stamp_to_ns
+from nodes.calibration.arm_routine import ArmCalibration, ArmRoutineConfig
 from nodes.common.params import declare_config, describe_config, param
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA, RELIABLE
 from nodes.common.runner import split_ros_args
-from nodes.common.standard_msgs import pose_stamped_msg
+from nodes.common.standard_msgs import pose_stamped_msg, tool_pose_values
 from nodes.common.transforms import tool_down_quaternion
-from nodes.detector.arm_calibration import ArmCalibration, ArmRoutineConfig
 from nodes.detector.calibration import CalibrationResult, calibrate_camera, calibrate_views
 from nodes.detector.camera_model import load_camera_pose, save_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector, to_gray
 from nodes.detector.sync import StampPairer
 from nodes.detector.tags import REFINEMENTS, FinderSettings, TagFinder
-from nodes.executor.node import tool_pose_from_msg
+from nodes.executor.motion import ToolPose
 
 MODES = ("scene", "arm")
 
@@ -195,7 +195,7 @@ class CalibrateNode(Node):
     # --- arm mode ---------------------------------------------------------------------------
     def on_tcp(self, msg: PoseStamped) -> None:
         try:
-            pose = tool_pose_from_msg(msg)
+            pose = ToolPose(*tool_pose_values(msg))
         except ValueError as err:
             self.get_logger().warning(f"ignoring a malformed /arm/tcp_pose: {err}")
             return
