@@ -121,8 +121,8 @@ def goal_entity(layout: Scene, stamp_ns: int, block_ids: Iterable[int] = ()) -> 
                                        pose=_pose(slot.x, slot.y, 0.0, slot.theta),
                                        thickness=OUTLINE_PX, scale_invariant=True,
                                        points=cube_edges(s), color=GOAL_OUTLINE_COLOUR))
-            texts.append(TextPrimitive(pose=_pose(slot.x, slot.y - s * 0.35, GOAL_TILE_M),
-                                       billboard=True, font_size=10.0, scale_invariant=True,
+            texts.append(TextPrimitive(pose=_pose(slot.x, slot.y, GOAL_TILE_M),
+                                       billboard=True, font_size=12.0, scale_invariant=True,
                                        color=Color(r=0.1, g=0.45, b=0.15, a=1.0), text=name))
     return _entity("goal", stamp_ns, cubes=cubes, lines=lines, texts=texts)
 
