@@ -103,7 +103,7 @@ class PlannerConfig:
     frozen_budget_s: float = param(
         2.0, "planning time when the start leaves a block off its goal that no grasp and no "
         "push of 5 mm or more can free, even with every block that can move gone "
-        "(nodes/planner/frozen.py; a permuted grid whose hole is not its centre): such a "
+        "(nodes/planner/bounds/frozen.py; a permuted grid whose hole is not its centre): such a "
         "scene has no plan short of slides within the gaps, so the planner fails soon, "
         "naming the blocks", unit="s")
     improve_factor: float = param(

@@ -16,12 +16,12 @@ from msgs_py import BlockPose, MessageError, Scene
 from msgs_py.scene import square_half_extent
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
+from nodes.planner.geometry.reach import check_scene_reach
+from nodes.planner.labeled.plan_labeled import misplaced, plan_scene
 from nodes.planner.outcome import PlanOutcome
-from nodes.planner.planner import misplaced, plan_scene
-from nodes.planner.reach import check_scene_reach
 from nodes.planner.unlabeled.baseline import plan_assignment
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.planner import plan_unlabeled, unfilled
+from nodes.planner.unlabeled.plan_unlabeled import plan_unlabeled, unfilled
 from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
 
 #: A planner: (scene, config, unlabeled config, budget, plan id) -> outcome.

@@ -12,8 +12,8 @@ from msgs_py import interface_codecs as ic
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
+from nodes.planner.geometry.validator import validate_plan
 from nodes.planner.node import PlannerNode
-from nodes.planner.validator import validate_plan
 from nodes.tools.goal import goal_layout
 
 pytestmark = pytest.mark.ros

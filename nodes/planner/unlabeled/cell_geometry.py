@@ -1,11 +1,12 @@
 """The work cell as a transfer space: sites are block poses, transfers are gripper actions.
 
-``CellSpace`` holds the sites of one scene (block poses, goal slots, buffers) and answers the
+``CellSites`` holds the sites of one scene (block poses, goal slots, buffers) and answers the
 pebble-graph search (``rpg.TransferSpace``, ``hypergraph.SearchSpace``): which sites
 conflict, the transfers among a set of sites with every other one occupied (the RPG's edges),
 the cheapest transfer for an actual occupancy (cached on the blocks within reach), fresh
 buffer sites out of the goal's way, what obstructs the goal. The transfers themselves, and
-the single actions they are made of, are ``cell_transfers``' (on ``nodes.planner.transfer``).
+the single actions they are made of, are ``cell_transfers``' (on
+``nodes.planner.geometry.transfer``).
 
 Site yaws are kept as given; a block standing on a site may be turned by a multiple of 90
 degrees from it (the footprint is the same), and ``cell_transfers.realize`` turns a
@@ -25,9 +26,9 @@ from msgs_py import Pose2D
 from msgs_py.cell import OVERLAP_AREA_TOL
 from msgs_py.footprint import block_corners, to_polygons
 from msgs_py.poses import poses_to_array
-from nodes.planner.context import PlanContext
-from nodes.planner.geometry import Obstacles
-from nodes.planner.transfer import grasp_checks
+from nodes.planner.geometry.context import PlanContext
+from nodes.planner.geometry.obstacles import Obstacles
+from nodes.planner.geometry.transfer import grasp_checks
 from nodes.planner.unlabeled.cell_transfers import TransferBatch, ways
 from nodes.planner.unlabeled.rpg import Site, Transfer
 
@@ -42,7 +43,7 @@ ZONE_SHRINK = 1e-5
 MIN_BUFFER_GAP = 0.001
 
 
-class CellSpace:
+class CellSites:
     """Block poses in one scene's workspace and the transfers between them.
 
     Args:

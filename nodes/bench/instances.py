@@ -1,0 +1,131 @@
+"""Benchmark instances: random, cramped and structured scenes for both planner benchmarks.
+
+Every set is a dense grid goal (3 mm gaps, the most nearly square rows x cols = n) at the
+centre of a square workspace sized for the density (block area / workspace area), seeded:
+
+* ``random``: n blocks scattered uniformly (position and yaw), as
+  ``nodes.common.scenes.random_scene`` draws them; at density 0.3 the workspace is cramped.
+  Blocks stand where the arm reaches them: a workspace of 1.29 m^2 (25 blocks at density
+  0.05, 100 at 0.2: 1.14 m square at (0.70, 0)) reaches past the arm's 1.28 m in its far
+  corners, where random_scene may put a block; those seeds then differ from its scenes.
+* ``enclosed``: the grid is built except for its interior slots on a checkerboard (the
+  centre of a 3x3; two of the four inner slots of a 4x4; five of the nine of a 5x5), each
+  walled in by four neighbours on their goals; those slots' blocks stand scattered outside
+  the grid.
+* ``rotated``: as ``random``, the grid turned by 45 degrees.
+* ``permuted``: every block on the grid stands on another block's slot (a random
+  derangement) and one slot is empty, its block outside the grid. (A dense grid with every
+  slot full cannot be touched at all: no grasp fits and no fingertip gets behind a block.)
+
+Unlabeled goals use the same blocks: for ``enclosed`` and ``permuted`` the blocks on the
+grid already fill their slots, only the empty ones need a block.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from msgs_py import BlockPose, Goal, GridSpec, Pose2D, Scene, Workspace
+from msgs_py.cell import BLOCK_SIZE
+from msgs_py.footprint import block_polygon
+from nodes.common.scenes import workspace_for
+from nodes.planner.geometry.reach import ur10e_reach
+
+SETS = ("random", "enclosed", "rotated", "permuted")
+GAP = 0.003
+MIN_GAP = 0.002  # between scattered blocks and from the grid's slots, as random_scene
+ATTEMPTS = 20_000
+
+
+def grid_shape(n: int) -> tuple[int, int]:
+    """The most nearly square rows x cols = n (rows <= cols)."""
+    rows = max(r for r in range(1, math.isqrt(n) + 1) if n % r == 0)
+    return rows, n // rows
+
+
+def grid_goal(n: int, workspace: Workspace, theta: float, labeled: bool) -> Goal:
+    rows, cols = grid_shape(n)
+    return Goal(grid=GridSpec(rows, cols, workspace.center, theta, GAP), labeled=labeled)
+
+
+def enclosed_slots(rows: int, cols: int) -> list[int]:
+    """Interior slots on a checkerboard (r + c even): each has four filled neighbours."""
+    return [r * cols + c for r in range(1, rows - 1) for c in range(1, cols - 1)
+            if (r + c) % 2 == 0]
+
+
+def scatter(count: int, workspace: Workspace, taken: list[Pose2D], rng: np.random.Generator,
+            ids: list[int]) -> list[BlockPose]:
+    """``count`` blocks uniformly in the workspace (position and yaw, drawn as
+    ``nodes.common.scenes.scatter_blocks`` draws them, so with nothing ``taken`` and every
+    draw in reach the scenes are the same), MIN_GAP clear of ``taken`` and of each other,
+    centres in the UR10e's reach (a 100-block workspace reaches beyond it).
+
+    Raises:
+        RuntimeError: no room for them.
+    """
+    s, reach = BLOCK_SIZE, ur10e_reach()
+    walls = [block_polygon(p.x, p.y, p.theta, s + 2 * MIN_GAP) for p in taken]
+    placed: list[BlockPose] = []
+    grown = []
+    for k in range(count):
+        for _ in range(ATTEMPTS):
+            theta = float(rng.uniform(-math.pi, math.pi))
+            x = float(rng.uniform(workspace.x_min, workspace.x_max))
+            y = float(rng.uniform(workspace.y_min, workspace.y_max))
+            cand = BlockPose(ids[k], x, y, theta)
+            if not workspace.contains_square(cand, s) or not reach.contains((x, y)):
+                continue
+            mine = block_polygon(x, y, theta, s + 2 * MIN_GAP)
+            if any(mine.intersects(w) for w in walls) or any(mine.intersects(g) for g in grown):
+                continue
+            placed.append(cand)
+            grown.append(mine)
+            break
+        else:
+            raise RuntimeError(f"no room for block {ids[k]} in {workspace}")
+    return placed
+
+
+def _from_grid(n: int, density: float, seed: int, labeled: bool, empty: list[int],
+               deranged: bool) -> Scene:
+    """Blocks on the goal grid (their own slots, or deranged) but for ``empty`` slots, whose
+    blocks are scattered outside."""
+    rng = np.random.default_rng(seed)
+    workspace = workspace_for(n, density)
+    goal = grid_goal(n, workspace, 0.0, labeled)
+    slots = goal.slot_poses(BLOCK_SIZE)
+    owner = list(range(n))  # block standing on each slot
+    if deranged:
+        while any(owner[k] == k for k in range(n)):
+            owner = [int(b) for b in rng.permutation(n)]
+    on_grid = [BlockPose(owner[k], slots[k].x, slots[k].y, slots[k].theta)
+               for k in range(n) if k not in empty]
+    outside = scatter(len(empty), workspace, slots, rng, [owner[k] for k in empty])
+    blocks = tuple(sorted(on_grid + outside, key=lambda b: b.id))
+    return Scene(workspace, BLOCK_SIZE, blocks, goal)
+
+
+def instance(kind: str, n: int, density: float, seed: int, labeled: bool = True) -> Scene:
+    """The scene of set ``kind`` with n blocks (slot k of a labeled grid is block k's).
+
+    Raises:
+        ValueError: an unknown set, or a grid that has no enclosed slot.
+        RuntimeError: the blocks do not fit the workspace at that density.
+    """
+    if kind in ("random", "rotated"):
+        workspace = workspace_for(n, density)
+        blocks = tuple(scatter(n, workspace, [], np.random.default_rng(seed), list(range(n))))
+        theta = 0.25 * math.pi if kind == "rotated" else 0.0
+        return Scene(workspace, BLOCK_SIZE, blocks, grid_goal(n, workspace, theta, labeled))
+    if kind == "enclosed":
+        empty = enclosed_slots(*grid_shape(n))
+        if not empty:
+            raise ValueError(f"a {grid_shape(n)} grid has no enclosed slot")
+        return _from_grid(n, density, seed, labeled, empty, deranged=False)
+    if kind == "permuted":
+        hole = int(np.random.default_rng(seed + 10_000).integers(n))
+        return _from_grid(n, density, seed, labeled, [hole], deranged=True)
+    raise ValueError(f"unknown instance set {kind!r}; sets: {SETS}")
