@@ -16,6 +16,7 @@ from msgs_py import BlockPose, MessageError, Scene
 from msgs_py.scene import square_half_extent
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
+from nodes.planner.geometry.context import check_scene_size
 from nodes.planner.geometry.reach import check_scene_reach
 from nodes.planner.labeled.plan_labeled import misplaced, plan_scene
 from nodes.planner.outcome import PlanOutcome
@@ -50,8 +51,10 @@ def goal_kind(scene: Scene) -> str:
 
 
 def check_goal(scene: Scene) -> None:
-    """Refuse a goal no planner handles, naming the field: no goal, an unlabeled goal asking
-    for ``yaw_exact``, a block or a slot out of the arm's reach."""
+    """Refuse a goal no planner handles, naming the field: no goal, more blocks or slots than
+    the planner takes, an unlabeled goal asking for ``yaw_exact``, a block or a slot out of
+    the arm's reach."""
+    check_scene_size(scene)
     kind = goal_kind(scene)
     if kind == "unlabeled" and scene.goal.yaw_exact:
         raise MessageError("yaw_exact", True, "unlabeled goals are met with yaw modulo 90 "

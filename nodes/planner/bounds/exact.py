@@ -38,6 +38,8 @@ from nodes.planner.geometry.transfer import grasp_checks, pick_place_between, pu
 MAX_BLOCKS = 5
 LINE_STEPS = (0.5, 1.0, 2.0)
 BUFFER_STEP = 1.5
+#: Most buffer poses on that lattice (the moves are tested between every pair of poses).
+BUFFER_MAX = 400
 QUARTER = 0.5 * math.pi
 
 
@@ -125,9 +127,7 @@ def pose_set(ctx, starts: list[Pose2D], slots: list[Pose2D]) -> list[Pose2D]:
     slot_feet = block_corners([q.x for q in slots], [q.y for q in slots],
                               [q.theta for q in slots], s)
     slot_obstacles = Obstacles(list(range(len(slots))), slot_feet, [False] * len(slots), {})
-    grid = np.arange(w.x_min + 0.5 * s, w.x_max - 0.5 * s + 1e-9, BUFFER_STEP * s)
-    rows = np.arange(w.y_min + 0.5 * s, w.y_max - 0.5 * s + 1e-9, BUFFER_STEP * s)
-    xy = np.stack(np.meshgrid(grid, rows), axis=-1).reshape(-1, 2)
+    xy = w.lattice(s, BUFFER_STEP * s, BUFFER_MAX)
     feet = block_corners(xy[:, 0], xy[:, 1], np.full(len(xy), yaw), s)
     clear = ~slot_obstacles.query(feet[:, None])[0]
     out += [Pose2D(float(x), float(y), yaw) for x, y in xy[clear]]
@@ -260,19 +260,29 @@ def _realize(ps: PoseSet, ids: list[int], start: Mapping[int, Pose2D],
     return actions
 
 
-def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
-               assignment: Mapping[int, int] | None, max_expansions: int = 20000
-               ) -> ExactResult:
-    """The fewest actions (over ``pose_set``) moving the blocks ``start`` onto the slots;
-    ``assignment`` (block id -> slot index) for a labeled goal, None for an unlabeled one.
+@dataclass(frozen=True)
+class PoseProblem:
+    """One scene over its pose set: blocks (goal blocks first), the start state (a block on
+    its goal stands on its goal's pose index), the goal slots' pose indices (labeled: slot k
+    is block ``ids[k]``'s goal) and the layout reasoning of the slots."""
 
-    Raises:
-        ValueError: more than ``MAX_BLOCKS`` blocks.
-        ExactLimit: no optimum proven within ``max_expansions`` (or no plan in the set).
-    """
-    if len(start) > MAX_BLOCKS:
-        raise ValueError(f"the exact search takes at most {MAX_BLOCKS} blocks, got "
-                         f"{len(start)}")
+    ids: list[int]
+    start: Mapping[int, Pose2D]
+    poses: PoseSet
+    state: tuple[int, ...]
+    slots: list[int]
+    labeled: bool
+    assembly: Assembly
+
+    def realize(self, moves: list[tuple[int, int, str]]) -> list[Action]:
+        """(block index, pose index, kind) moves as msgs_py actions."""
+        return _realize(self.poses, self.ids, self.start, self.state, moves)
+
+
+def pose_problem(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
+                 assignment: Mapping[int, int] | None) -> PoseProblem:
+    """The scene over ``pose_set``; ``assignment`` (block id -> slot index) for a labeled
+    goal, None for an unlabeled one."""
     named = sorted(assignment) if assignment is not None else sorted(start)
     ids = named + sorted(set(start) - set(named))  # blocks with a goal first
     starts = [start[b] for b in ids]
@@ -280,7 +290,6 @@ def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
     n_start = len(ids)
     slot_idx = [n_start + k for k in range(len(goal_slots))]
     cfg = ctx.config
-    state = tuple(range(n_start))
     if assignment is not None:  # labeled: slot k of the problem is block ids[k]'s goal
         slots = [slot_idx[assignment[b]] for b in named]
         asm = Assembly(ctx, {k: goal_slots[assignment[b]] for k, b in enumerate(named)})
@@ -301,6 +310,23 @@ def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
                 taken.add(on)
             fixed.append(on if on is not None else k)
         state = tuple(fixed)
-    problem = _Problem(ps, state, slots, assignment is not None, asm)
+    return PoseProblem(ids, dict(start), ps, state, slots, assignment is not None, asm)
+
+
+def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
+               assignment: Mapping[int, int] | None, max_expansions: int = 20000,
+               max_blocks: int = MAX_BLOCKS) -> ExactResult:
+    """The fewest actions (over ``pose_set``) moving the blocks ``start`` onto the slots;
+    ``assignment`` (block id -> slot index) for a labeled goal, None for an unlabeled one.
+
+    Raises:
+        ValueError: more than ``max_blocks`` blocks.
+        ExactLimit: no optimum proven within ``max_expansions`` (or no plan in the set).
+    """
+    if len(start) > max_blocks:
+        raise ValueError(f"the exact search takes at most {max_blocks} blocks, got "
+                         f"{len(start)}")
+    pp = pose_problem(ctx, start, goal_slots, assignment)
+    problem = _Problem(pp.poses, pp.state, pp.slots, pp.labeled, pp.assembly)
     moves, expansions = problem.solve(max_expansions)
-    return ExactResult(_realize(ps, ids, start, state, moves), expansions, len(ps.poses))
+    return ExactResult(pp.realize(moves), expansions, len(pp.poses.poses))

@@ -11,7 +11,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 
-from msgs_py import Pose2D, Scene
+from msgs_py import MessageError, Pose2D, Scene
 from msgs_py.cell import GripperGeometry
 from msgs_py.footprint import block_corners
 from nodes.planner.config import PlannerConfig
@@ -22,6 +22,32 @@ from nodes.planner.geometry.transfer import CostModel
 State = Mapping[int, Pose2D]
 #: Poses closer than this (m, rad) are the same pose: an action between them does nothing.
 SAME_POSE_TOL = 1e-6
+#: Most blocks, and most goal slots, one scene may hold: twice the largest benchmark scene
+#: (100 blocks plan in seconds); the footprint tests grow with the square of the count.
+MAX_SCENE_BLOCKS = 200
+
+
+def check_scene_size(scene: Scene) -> None:
+    """Refuse a scene with more blocks or goal slots than ``MAX_SCENE_BLOCKS``, naming the
+    field, before anything is built for it."""
+    if len(scene.blocks) > MAX_SCENE_BLOCKS:
+        raise MessageError("blocks", f"{len(scene.blocks)} blocks", f"the planner takes at "
+                           f"most {MAX_SCENE_BLOCKS} blocks per scene")
+    if scene.goal is not None and scene.goal.n_slots > MAX_SCENE_BLOCKS:
+        raise MessageError("goal", f"{scene.goal.n_slots} slots", f"the planner takes at most "
+                           f"{MAX_SCENE_BLOCKS} goal slots per scene")
+
+
+def planning_workspace(scene: Scene, reach: Reach) -> tuple[Bounds, bool]:
+    """The part of the scene's workspace the planner uses, and whether it is smaller: no block
+    can stand beyond the arm's reach (every grasp and push puts the TCP over or behind it), so
+    the workspace is clipped to the square around the reach; every lattice and sample drawn
+    over it is then bounded by the arm, not by the scene file."""
+    w = scene.workspace
+    given = Bounds(w.x_min, w.x_max, w.y_min, w.y_max)
+    r = reach.r_max
+    used = given.clipped(Bounds(-r, r, -r, r))
+    return used, used != given
 
 
 @dataclass(frozen=True)
@@ -37,12 +63,14 @@ class PlanContext:
     @classmethod
     def for_scene(cls, scene: Scene, config: PlannerConfig) -> PlanContext:
         """Raises ValueError when the gripper does not fit the scene's blocks, MessageError
-        when a block or a goal slot is out of the arm's reach (naming it)."""
+        when the scene holds too many blocks or a block or a goal slot is out of the arm's
+        reach (naming it). The workspace is the part within the arm's reach
+        (``planning_workspace``)."""
+        check_scene_size(scene)
         config.check_block(scene.block_size)
         reach = ur10e_reach()
         check_scene_reach(scene, reach)
-        w = scene.workspace
-        workspace = Bounds(w.x_min, w.x_max, w.y_min, w.y_max)
+        workspace, _ = planning_workspace(scene, reach)
         return cls(config, config.gripper(scene.block_size), workspace,
                    workspace.grown(config.table_margin), tuple(sorted(scene.block_ids)),
                    reach, CostModel.of(config))

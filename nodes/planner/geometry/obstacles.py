@@ -15,6 +15,7 @@ scene may hold any number of blocks.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -51,6 +52,26 @@ class Bounds:
     def grown(self, margin: float) -> Bounds:
         return Bounds(self.x_min - margin, self.x_max + margin,
                       self.y_min - margin, self.y_max + margin)
+
+    def clipped(self, other: Bounds) -> Bounds:
+        """The part of this region inside ``other`` (empty regions keep x_min <= x_max)."""
+        x_min, y_min = max(self.x_min, other.x_min), max(self.y_min, other.y_min)
+        return Bounds(x_min, max(x_min, min(self.x_max, other.x_max)),
+                      y_min, max(y_min, min(self.y_max, other.y_max)))
+
+    def lattice(self, size: float, step: float, max_points: int) -> np.ndarray:
+        """Centres (K, 2) of a lattice ``step`` apart whose squares of side ``size`` lie
+        inside, row-major from (x_min, y_min); the step widened (by the square root of the
+        excess) where it would hold more than ``max_points``, so memory is bounded before
+        anything is built on it."""
+        span_x = max(self.x_max - self.x_min - size, 0.0)
+        span_y = max(self.y_max - self.y_min - size, 0.0)
+        count = (span_x / step + 1.0) * (span_y / step + 1.0)
+        if count > max_points:
+            step *= math.sqrt(count / max_points) * (1.0 + 1e-9)
+        xs = np.arange(self.x_min + 0.5 * size, self.x_max - 0.5 * size + 1e-9, step)
+        ys = np.arange(self.y_min + 0.5 * size, self.y_max - 0.5 * size + 1e-9, step)
+        return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
 
     def contains(self, corners: np.ndarray) -> np.ndarray:
         """Whether all four corners of each ``corners[..., 4, 2]`` shape lie inside."""

@@ -91,8 +91,10 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
     try:
         actions = attempt.solve(np.random.default_rng(config.seed), 0.0, budget, metrics)
     except PlanningFailure as failure:
-        why = str(failure) + (f"; blocks {frozen} are off their goal and {FROZEN_WHY}"
-                              if frozen else "")
+        why = str(failure)
+        if frozen:  # the real cause first: the short budget was this scene's own
+            why = (f"blocks {frozen} are off their goal and {FROZEN_WHY}, so the search got "
+                   f"only frozen_budget_s = {config.frozen_budget_s:g} s; it ended with {why}")
         return failed(budget, bound.value, why, failure.block, metrics)
     before = len(actions)
     actions = necessary_actions(scene, attempt.params, actions)

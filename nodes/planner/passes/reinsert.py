@@ -31,6 +31,10 @@ from nodes.planner.passes.rebuffer import line_buffers
 
 #: Spacing (block sizes) of the lattice of buffer poses (at the goal's yaw) tried.
 LATTICE_STEP = 0.5
+#: Most lattice poses: the pass tests every pair of candidates per moment, so its time grows
+#: with the square of this (a 0.9 m square workspace, 16 blocks at density 0.05, has 1296 at
+#: 0.5 block sizes; a wider workspace gets a coarser lattice).
+LATTICE_MAX = 1300
 INF = np.inf
 #: Longest plan re-inserted (9 blocks at density 0.3 take 14-18 actions, 16 blocks 25-30).
 MAX_ACTIONS = 40
@@ -171,10 +175,8 @@ def reinsert_block(ctx, start: Mapping[int, Pose2D], actions: list[Action], bloc
 
 def _lattice(ctx, yaw: float) -> np.ndarray:
     """Poses on a lattice over the workspace at ``yaw``, every block inside it."""
-    w, size = ctx.workspace, ctx.geom.block_size
-    xs = np.arange(w.x_min + 0.5 * size, w.x_max - 0.5 * size + 1e-9, LATTICE_STEP * size)
-    ys = np.arange(w.y_min + 0.5 * size, w.y_max - 0.5 * size + 1e-9, LATTICE_STEP * size)
-    xy = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    size = ctx.geom.block_size
+    xy = ctx.workspace.lattice(size, LATTICE_STEP * size, LATTICE_MAX)
     return np.column_stack([xy, np.full(len(xy), yaw)])
 
 

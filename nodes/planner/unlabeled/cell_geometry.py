@@ -37,6 +37,8 @@ QUARTER = 0.5 * math.pi
 #: over the whole workspace, so that crowded tables still yield the free spots they have.
 BUFFER_CANDIDATES = 400
 LATTICE_STEP = 0.125
+#: Most buffer candidates on that lattice (the default 0.5 x 0.7 m workspace has 7400).
+LATTICE_MAX = 20_000
 #: How much (m) the zone is shrunk for the fast overlap test of buffer candidates.
 ZONE_SHRINK = 1e-5
 #: Smallest gap (m) between a buffer and any block.
@@ -139,10 +141,7 @@ class CellSites:
         """Buffer candidates on a fixed lattice over the workspace, with their zone flags
         (computed once per zone)."""
         if self._lattice_cache is None:
-            w, half = self.ctx.workspace, 0.5 * self.s
-            xs = np.arange(w.x_min + half, w.x_max - half + 1e-9, LATTICE_STEP * self.s)
-            ys = np.arange(w.y_min + half, w.y_max - half + 1e-9, LATTICE_STEP * self.s)
-            xy = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+            xy = self.ctx.workspace.lattice(self.s, LATTICE_STEP * self.s, LATTICE_MAX)
             yaw = np.full(len(xy), self.buffer_yaw)
             corners = block_corners(xy[:, 0], xy[:, 1], yaw, self.s)
             feet = to_polygons(corners)
