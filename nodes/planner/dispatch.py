@@ -23,6 +23,7 @@ from nodes.planner.outcome import PlanOutcome
 from nodes.planner.unlabeled.baseline import plan_assignment
 from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.plan_unlabeled import plan_unlabeled, unfilled
+from nodes.planner.unlabeled.portfolio import plan_portfolio
 from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
 
 #: A planner: (scene, config, unlabeled config, budget, plan id) -> outcome.
@@ -34,7 +35,8 @@ def _pirs(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig, budget: Bu
     return plan_scene(scene, config, budget, plan_id)
 
 
-UNLABELED: dict[str, Planner] = {"pebble_graphs": plan_unlabeled, "assignment": plan_assignment}
+UNLABELED: dict[str, Planner] = {"portfolio": plan_portfolio, "pebble_graphs": plan_unlabeled,
+                                 "assignment": plan_assignment}
 RETRIEVAL: dict[str, Planner] = {"pebble_graphs": plan_retrieval, "pirs": _pirs}
 #: Per goal kind, the planner that takes over (within the rest of the budget) when the
 #: pebble-graph planner fails.

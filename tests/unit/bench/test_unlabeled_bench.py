@@ -25,9 +25,20 @@ def test_scenes_are_the_random_scenes_of_the_other_benchmarks():
 def test_a_tiny_run_reports_every_planner():
     parser = argparse.ArgumentParser()
     unlabeled_bench.add_arguments(parser)
-    opts = parser.parse_args(["--set", "random", "--k", "2", "--b", "1", "--density", "high"])
+    opts = parser.parse_args(["--set", "random", "--k", "2", "--b", "1", "--density", "high",
+                              "--goal", "grid", "poses"])
     opts.quick, opts.seeds = False, 2
     rows = unlabeled_bench.run(opts)
-    assert [r["planner"] for r in rows] == ["labeled_pirs", "assignment_pirs", "pebble_graphs"]
+    planners = ["default (portfolio)", "labeled_pirs", "assignment_pirs", "pebble_graphs"]
+    assert [r["planner"] for r in rows] == planners * 2
+    assert [r["goal"] for r in rows] == ["grid"] * 4 + ["poses"] * 4
     assert all(r["success_rate"] == 1.0 for r in rows)
     assert set(unlabeled_bench.COLUMNS) <= set(rows[-1])
+
+
+def test_an_explicit_pose_goal_lists_the_grids_slots():
+    grid = unlabeled_bench.bench_scene(9, 0.3, seed=2, labeled=False)
+    poses = unlabeled_bench.bench_scene(9, 0.3, seed=2, labeled=False, goal_form="poses")
+    assert poses.goal.grid is None and not poses.goal.labeled
+    assert poses.goal.slot_poses(poses.block_size) == grid.goal.slot_poses(grid.block_size)
+    assert poses.blocks == grid.blocks

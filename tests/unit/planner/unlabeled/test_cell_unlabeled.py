@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -14,6 +15,8 @@ from nodes.planner.dispatch import goal_kind, plan_goal
 from nodes.planner.geometry.context import PlanContext
 from nodes.planner.geometry.validator import validate_plan
 from nodes.planner.labeled.plan_labeled import plan_scene
+from nodes.planner.outcome import PlanOutcome
+from nodes.planner.unlabeled import portfolio
 from nodes.planner.unlabeled.baseline import assign_slots, plan_assignment
 from nodes.planner.unlabeled.cell_geometry import CellSites
 from nodes.planner.unlabeled.cell_transfers import realize
@@ -164,7 +167,9 @@ def test_dispatch_routes_each_goal_kind():
     unl = random_scene(4, 0.2, seed=1, labeled=False)
     lab = random_scene(4, 0.2, seed=1, labeled=True)
     assert goal_kind(unl) == "unlabeled" and goal_kind(lab) == "labeled"
-    assert plan_goal(unl, CONFIG).plan.planner == "pebble_graphs"
+    assert plan_goal(unl, CONFIG).plan.planner in ("pebble_graphs", "assignment_pirs")
+    assert plan_goal(unl, CONFIG, UnlabeledConfig(method="pebble_graphs")).plan.planner \
+        == "pebble_graphs"
     assert plan_goal(unl, CONFIG, UnlabeledConfig(method="assignment")).plan.planner \
         == "assignment_pirs"
     assert plan_goal(lab, CONFIG).plan.planner == "pirs"
@@ -215,5 +220,32 @@ def test_a_failed_unlabeled_plan_falls_back_to_the_baseline(monkeypatch):
         return PlanOutcome(None, 0.01, 4, "no plan: made up")
 
     monkeypatch.setitem(dispatch.UNLABELED, "pebble_graphs", fails)
-    out = plan_goal(random_scene(4, 0.2, seed=1, labeled=False), CONFIG)
+    out = plan_goal(random_scene(4, 0.2, seed=1, labeled=False), CONFIG,
+                    UnlabeledConfig(method="pebble_graphs"))
     assert out.ok and out.plan.planner == "assignment_pirs" and out.metrics["fallback"] == 1.0
+
+
+def _outcome(actions: int | None, bound: int = 4) -> PlanOutcome:
+    plan = None if actions is None else types.SimpleNamespace(actions=[None] * actions)
+    return PlanOutcome(plan, 0.01, bound, "" if plan else "no plan: made up")
+
+
+@pytest.mark.parametrize(("graphs", "assignment", "chosen", "asked"), [
+    (7, 6, "assignment", True), (6, 6, "pebble_graphs", True), (None, 6, "assignment", True),
+    (4, 3, "pebble_graphs", False)])  # 4 actions meet the bound: the baseline is not asked
+def test_the_portfolio_keeps_the_shorter_plan(monkeypatch, graphs, assignment, chosen, asked):
+    calls = []
+
+    def fake(name, actions):
+        def planner(scene, config, ucfg, budget=None, plan_id=None):
+            calls.append(name)
+            return _outcome(actions)
+        return planner
+
+    monkeypatch.setattr(portfolio, "plan_unlabeled", fake("pebble_graphs", graphs))
+    monkeypatch.setattr(portfolio, "plan_assignment", fake("assignment", assignment))
+    out = portfolio.plan_portfolio(random_scene(4, 0.2, seed=1, labeled=False), CONFIG,
+                                   UnlabeledConfig())
+    assert calls == ["pebble_graphs", "assignment"][:1 + asked]
+    assert len(out.plan.actions) == {"pebble_graphs": graphs, "assignment": assignment}[chosen]
+    assert out.metrics["portfolio_pebble_graphs"] == (graphs if graphs is not None else -1)
