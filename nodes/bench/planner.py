@@ -6,7 +6,9 @@ count and density, plans ``--seeds`` scenes with pIRS and reports success rate, 
 ``exact.MAX_BLOCKS`` blocks, the exact optimum over a fixed pose set and the gap to that. Every
 plan counted has passed the replay validator; a scene that fails, or cannot be built, is
 listed with its reason in the row's ``failures`` (never a traceback). ``--variants`` adds
-rows with one option switched off (or on) to measure each.
+rows with one option switched off (or on) to measure each. Scenes in the reference file
+(``reference_file``, written by ``densepack-bench reference``) add the gap to the best plan
+known and, where it is proven, to the optimum (``scenes_proven``, ``scenes_at_optimum``).
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from msgs_py import Scene
+from msgs_py import Pose2D, Scene
 from nodes.bench.instances import SETS, instance
+from nodes.bench.reference_file import load_reference, proven_optimum, scene_key
 from nodes.planner.bounds.exact import MAX_BLOCKS, ExactLimit, exact_plan
 from nodes.planner.cli import name_value
 from nodes.planner.config import PlannerConfig
@@ -32,7 +35,9 @@ COLUMNS = ["set", "n_blocks", "density", "variant", "seeds", "success_rate", "ti
            "time_p90_s", "actions_median", "lower_bound_median",
            "actions_minus_lower_bound_median", "scenes_within_lower_bound_plus_1",
            "actions_over_lower_bound_median",
-           "exact_median", "actions_minus_exact_median"]
+           "exact_median", "actions_minus_exact_median", "reference_scenes",
+           "actions_minus_best_known_median", "scenes_proven", "actions_minus_optimum_median",
+           "scenes_at_optimum"]
 
 DENSITIES = {"low": 0.05, "high": 0.20, "cramped": 0.30}
 #: (block counts, densities) per set when --n / --density are not given; --quick: the first.
@@ -110,16 +115,22 @@ def median(values: list[float]) -> float:
     return float(statistics.median(values)) if values else float("nan")
 
 
+def scene_assignment(scene: Scene) -> tuple[list[Pose2D], dict[int, int] | None]:
+    """The goal's slots and, for a labeled goal, block id -> slot index (the form the exact
+    search and the decision procedure take)."""
+    slots = scene.goal.slot_poses(scene.block_size)
+    if not scene.goal.labeled:
+        return slots, None
+    index = {(p.x, p.y): k for k, p in enumerate(slots)}
+    return slots, {b: index[(p.x, p.y)] for b, p in scene.goal_assignment().items()}
+
+
 def exact_actions(scene: Scene, config: PlannerConfig) -> int | None:
     """The exact optimum over the fixed pose set, or None (too big, not proven)."""
     if len(scene.blocks) > MAX_BLOCKS or scene.goal.yaw_exact:
         return None
     ctx = PlanContext.for_scene(scene, config)
-    slots = scene.goal.slot_poses(scene.block_size)
-    assignment = None
-    if scene.goal.labeled:
-        index = {(p.x, p.y): k for k, p in enumerate(slots)}
-        assignment = {b: index[(p.x, p.y)] for b, p in scene.goal_assignment().items()}
+    slots, assignment = scene_assignment(scene)
     try:
         return len(exact_plan(ctx, {b.id: b.pose for b in scene.blocks}, slots,
                               assignment).actions)
@@ -135,6 +146,8 @@ class Tally:
     actions: dict[int, float] = dataclasses.field(default_factory=dict)  # seed -> actions
     bounds: dict[int, float] = dataclasses.field(default_factory=dict)
     exact: dict[int, float] = dataclasses.field(default_factory=dict)
+    best_known: dict[int, float] = dataclasses.field(default_factory=dict)  # reference file
+    optimum: dict[int, float] = dataclasses.field(default_factory=dict)  # ... when proven
     raw: list[float] = dataclasses.field(default_factory=list)
     pushes: list[float] = dataclasses.field(default_factory=list)
     clears: list[float] = dataclasses.field(default_factory=list)
@@ -164,6 +177,8 @@ class Tally:
         gap = [self.actions[s] - self.bounds[s] for s in done]
         ratio = [self.actions[s] / max(self.bounds[s], 1.0) for s in done]
         to_exact = [self.actions[s] - self.exact[s] for s in done if s in self.exact]
+        to_best = [self.actions[s] - self.best_known[s] for s in done if s in self.best_known]
+        to_optimum = [self.actions[s] - self.optimum[s] for s in done if s in self.optimum]
         return {
             "seeds": self.seeds,
             "success_rate": len(done) / self.seeds if self.seeds else float("nan"),
@@ -178,9 +193,18 @@ class Tally:
             "exact_median": median(list(self.exact.values())),
             "exact_solved": len(self.exact),
             "actions_minus_exact_median": median(to_exact),
+            "reference_scenes": len(self.best_known),
+            "actions_minus_best_known_median": median(to_best),
+            "scenes_proven": len(self.optimum),
+            "optimum_median": median(list(self.optimum.values())),
+            "actions_minus_optimum_median": median(to_optimum),
+            "scenes_at_optimum": sum(g <= 0 for g in to_optimum),
             "failures": self.failures,
             "per_seed": {str(s): {"actions": self.actions.get(s), "lower_bound": b,
-                                  "exact": self.exact.get(s)} for s, b in self.bounds.items()},
+                                  "exact": self.exact.get(s),
+                                  "best_known": self.best_known.get(s),
+                                  "optimum": self.optimum.get(s)}
+                         for s, b in self.bounds.items()},
         }
 
 
@@ -195,7 +219,13 @@ def plan_safely(tally: Tally, seed: int, planner: Callable[..., PlanOutcome], *a
 def run_set(kind: str, n: int, density: float, seeds: range, config: PlannerConfig,
             exact: bool = True) -> dict[str, Any]:
     tally = Tally()
+    reference = load_reference()
     for seed in seeds:
+        entry = reference.get(scene_key(kind, n, density, seed))
+        if entry is not None and entry.get("best_actions") is not None:
+            tally.best_known[seed] = float(entry["best_actions"])
+            if proven_optimum(entry) is not None:
+                tally.optimum[seed] = float(proven_optimum(entry))
         try:
             scene = instance(kind, n, density, seed)
         except (ValueError, RuntimeError) as err:

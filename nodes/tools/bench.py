@@ -28,6 +28,7 @@ SUITES = {
     "planner": "nodes.bench.planner",
     "cell": "nodes.tools.cell_bench",
     "unlabeled": "nodes.bench.unlabeled",
+    "reference": "nodes.bench.reference",
     "placement": "nodes.executor.placement_bench",
 }
 

@@ -23,8 +23,9 @@ those whose blocks arrived before (extra blocks only get in the way more), so:
 Minimising the sum over every arrival order and every choice of blocks moved off their goal
 is a shortest path over the subsets of slots (``Relaxation``): exact below ``DP_MAX`` slots.
 Above, two cheaper certified bounds, the larger counts: the last two arrivals (when they
-arrive every other slot is filled), and vertex-disjoint cycles of blocks standing on each
-other's slots (one of each cycle must be cleared). Unlabeled goals: any block may fill any
+arrive every other slot is filled), and the minimum feedback vertex set of "stands on the
+slot of" among blocks to move (``feedback``: every cycle needs one of its blocks cleared,
+moved twice, so some set of blocks meeting every cycle is). Unlabeled goals: any block may fill any
 slot, so slots arrive (not blocks), a push is forced unless some block starts on a push line
 into the slot, and no clears are forced.
 
@@ -45,12 +46,18 @@ from msgs_py import Pose2D
 from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound_starts import StartSearch, start_ways
+from nodes.planner.bounds.feedback import feedback_vertex_set
 from nodes.planner.geometry.context import at_pose
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_int, words
 from nodes.planner.geometry.transfer import grasp_checks, push_checks, push_line
 
-#: Largest slot count for which the exact relaxation (2^n subsets) is solved.
+#: Largest slot count for which the planner solves the exact relaxation (2^n subsets, about
+#: 0.01 s at 12 slots) and the start-aware one (pairs of subsets).
 DP_MAX = 12
+STARTS_MAX = DP_MAX
+#: The same for the benchmarks' reference bound (``reference_bound``): 16 slots take
+#: seconds, too long for a planner that replans in the executor's loop.
+REFERENCE_DP_MAX = 16
 INF = math.inf
 
 
@@ -162,41 +169,6 @@ class Relaxation:
         return best
 
 
-def _disjoint_cycles(clears: list[int], todo: int) -> int:
-    """Vertex-disjoint cycles (greedy, shortest first) of 'stands on the slot of'."""
-    n = len(clears)
-    used = 0
-    count = 0
-    for c in range(n):
-        if not todo >> c & 1 or used >> c & 1:
-            continue
-        # breadth-first from c back to c through unused slots to fill
-        prev = {c: -1}
-        frontier = [c]
-        found = None
-        while frontier and found is None:
-            nxt = []
-            for u in frontier:
-                for v in range(n):
-                    if clears[u] >> v & 1 and todo >> v & 1 and not used >> v & 1:
-                        if v == c:
-                            found = u
-                            break
-                        if v not in prev:
-                            prev[v] = u
-                            nxt.append(v)
-                if found is not None:
-                    break
-            frontier = nxt
-        if found is not None:
-            node = found
-            while node != -1:
-                used |= 1 << node
-                node = prev[node]
-            count += 1
-    return count
-
-
 def _overlaps(ctx, poses: list[Pose2D], slots: list[Pose2D]) -> list[int]:
     """Per pose, the mask of the slots its footprint overlaps."""
     s = ctx.geom.block_size
@@ -221,27 +193,29 @@ def _on_push_line(starts: list[Pose2D], slot: Pose2D, period: float) -> np.ndarr
     return push_line(a, b)[0]
 
 
-def _solve(relax: Relaxation, misplaced: int, extra_fixed: int, ids: list[int]
-           ) -> LowerBound:
+def _solve(relax: Relaxation, misplaced: int, extra_fixed: int, ids: list[int],
+           dp_max: int = DP_MAX) -> LowerBound:
     if relax.todo == 0:
         return LowerBound(extra_fixed, 0, extra_fixed, True, frozenset(ids))
-    if relax.n <= DP_MAX:
+    if relax.n <= dp_max:
         cost, kept = relax.best_start()
         if cost < INF:
             extra = round(cost) - misplaced + extra_fixed
             keep = frozenset(b for k, b in enumerate(ids) if kept >> k & 1)
             return LowerBound(misplaced + extra, misplaced, extra, True, keep, relax)
     tail = relax.tail()
-    cycles = _disjoint_cycles(relax.clears, relax.todo)
+    cycles = feedback_vertex_set(relax.clears, relax.todo)
     walled = 2 if relax.walls else 0  # one placed block at least away and back
     extra = max(int(tail) if tail < INF else 0, cycles, walled) + extra_fixed
     return LowerBound(misplaced + extra, misplaced, extra, False)
 
 
 def labeled_bound(ctx, start: Mapping[int, Pose2D], goals: Mapping[int, Pose2D],
-                  yaw_exact: bool, assembly: Assembly | None = None) -> LowerBound:
+                  yaw_exact: bool, assembly: Assembly | None = None, dp_max: int = DP_MAX
+                  ) -> LowerBound:
     """The bound for moving the blocks ``start`` to their ``goals`` (blocks without a goal
-    are free)."""
+    are free); the slot relaxation solved exactly up to ``dp_max`` slots (the planner's
+    ``DP_MAX``; the benchmarks' reference bound ``REFERENCE_DP_MAX``)."""
     cfg = ctx.config
     ids = sorted(goals)
     asm = assembly or Assembly(ctx, dict(goals))
@@ -258,17 +232,17 @@ def labeled_bound(ctx, start: Mapping[int, Pose2D], goals: Mapping[int, Pose2D],
                   for k, options in enumerate(first_movers(ctx, start, ids))
                   if todo >> k & 1 and options and all(m & ~todo for m in options))
     relax = Relaxation(asm, todo, exempt, clears, 2.0, walls)
-    bound = _solve(relax, todo.bit_count(), on_slots, ids)
+    bound = _solve(relax, todo.bit_count(), on_slots, ids, dp_max)
     return _with_starts(ctx, bound, relax, start, goals, ids, on_slots)
 
 
 def _with_starts(ctx, bound: LowerBound, relax: Relaxation, start: Mapping[int, Pose2D],
                  goals: Mapping[int, Pose2D], ids: list[int], fixed: int) -> LowerBound:
     """``bound`` raised to the start-aware relaxation's value (``bound_starts``) where that
-    is larger: both are lower bounds, so their maximum is one. Only up to ``DP_MAX`` slots
+    is larger: both are lower bounds, so their maximum is one. Only up to ``STARTS_MAX`` slots
     (the search is over pairs of subsets); the order and kept set stay the slot
     relaxation's (the planner's order uses them)."""
-    if relax.todo == 0 or relax.n > DP_MAX:
+    if relax.todo == 0 or relax.n > STARTS_MAX:
         return bound
     kept_all = ((1 << relax.n) - 1) & ~relax.todo
     starts = [sub for sub in _subsets(kept_all) if relax.keepable(sub)]
@@ -320,7 +294,7 @@ def _positions(mask: int, bit_to_pos: Mapping[int, int]) -> int:
 
 
 def unlabeled_bound(ctx, blocks: list[Pose2D], slots: list[Pose2D], filled: list[bool],
-                    assembly: Assembly | None = None) -> LowerBound:
+                    assembly: Assembly | None = None, dp_max: int = DP_MAX) -> LowerBound:
     """The bound for filling ``slots`` (``filled``: a block stands on it) with ``blocks``."""
     n = len(slots)
     asm = assembly or Assembly(ctx, dict(enumerate(slots)))
@@ -332,4 +306,4 @@ def unlabeled_bound(ctx, blocks: list[Pose2D], slots: list[Pose2D], filled: list
     # a slot's block moved off it counts 1: its leaving may be another slot's arrival
     relax = Relaxation(asm, todo, exempt, [0] * n, moved_cost=1.0)
     excess = max(0, must_move - n)
-    return _solve(relax, todo.bit_count(), excess, list(range(n)))
+    return _solve(relax, todo.bit_count(), excess, list(range(n)), dp_max)

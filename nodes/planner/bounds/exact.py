@@ -21,6 +21,7 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -197,7 +198,9 @@ class _Problem:
             for v, kind in self.ps.moves(u, occupied):
                 yield i, v, kind, (*state[:i], v, *state[i + 1:])
 
-    def solve(self, max_expansions: int) -> tuple[list[tuple[int, int, str]], int]:
+    def solve(self, max_expansions: int, seconds: float | None = None
+              ) -> tuple[list[tuple[int, int, str]], int]:
+        deadline = None if seconds is None else time.monotonic() + seconds
         tie = itertools.count()
         h0 = self.heuristic(self.start)
         if h0 == INF:
@@ -216,6 +219,8 @@ class _Problem:
             expansions += 1
             if expansions > max_expansions:
                 raise ExactLimit(f"no optimum proven within {max_expansions} expansions")
+            if deadline is not None and expansions % 64 == 0 and time.monotonic() > deadline:
+                raise ExactLimit(f"no optimum proven within {seconds:g} s")
             for i, v, kind, nxt in self.successors(state):
                 k = self.key(nxt)
                 if best.get(k, INF) <= g + 1:
@@ -315,18 +320,19 @@ def pose_problem(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
 
 def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
                assignment: Mapping[int, int] | None, max_expansions: int = 20000,
-               max_blocks: int = MAX_BLOCKS) -> ExactResult:
+               max_blocks: int = MAX_BLOCKS, seconds: float | None = None) -> ExactResult:
     """The fewest actions (over ``pose_set``) moving the blocks ``start`` onto the slots;
     ``assignment`` (block id -> slot index) for a labeled goal, None for an unlabeled one.
 
     Raises:
         ValueError: more than ``max_blocks`` blocks.
-        ExactLimit: no optimum proven within ``max_expansions`` (or no plan in the set).
+        ExactLimit: no optimum proven within ``max_expansions`` or ``seconds`` (or no plan
+            in the set).
     """
     if len(start) > max_blocks:
         raise ValueError(f"the exact search takes at most {max_blocks} blocks, got "
                          f"{len(start)}")
     pp = pose_problem(ctx, start, goal_slots, assignment)
     problem = _Problem(pp.poses, pp.state, pp.slots, pp.labeled, pp.assembly)
-    moves, expansions = problem.solve(max_expansions)
+    moves, expansions = problem.solve(max_expansions, seconds)
     return ExactResult(pp.realize(moves), expansions, len(pp.poses.poses))
