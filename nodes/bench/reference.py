@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import fcntl
 import json
 import time
 from pathlib import Path
@@ -129,18 +130,25 @@ def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
                 for seed in seeds:
                     key = scene_key(kind, n, density, seed)
                     entry = reference_entry(kind, n, density, seed, opts, known.get(key))
-                    known[key] = entry
                     rows.append({k: v for k, v in entry.items() if k not in ("plan", "levels")})
                     print(f"  {key}: {entry['status']}, best {entry['best_actions']}, bound "
                           f"{entry['lower_bound']}, pose set >= {entry['pose_set_bound']} "
                           f"({entry['seconds']} s)", flush=True)
-                    _write(opts.out, known)
+                    _store(opts.out, entry)
     return rows
 
 
-def _write(path: Path, entries: dict[str, dict[str, Any]]) -> None:
+def _store(path: Path, entry: dict[str, Any]) -> None:
+    """Put ``entry`` into the file, re-read under a lock so that runs of other scene sets
+    writing the same file at the same time keep each other's entries."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    record = {"about": "best validated plan known per benchmark scene and its proof status "
-                       "(densepack-bench reference; nodes/bench/reference.py)",
-              "scenes": [entries[k] for k in sorted(entries)]}
-    path.write_text(json.dumps(record, indent=1) + "\n")
+    with open(path.with_suffix(".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        entries = load_reference(path)
+        entries[entry["key"]] = entry
+        record = {"about": "best validated plan known per benchmark scene and its proof "
+                           "status (densepack-bench reference; nodes/bench/reference.py)",
+                  "scenes": [entries[k] for k in sorted(entries)]}
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(record, indent=1) + "\n")
+        tmp.replace(path)
