@@ -26,17 +26,25 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 
 from msgs_py import BlockPose, Goal, GridSpec, Pose2D, Scene, Workspace
 from msgs_py.cell import BLOCK_SIZE
-from msgs_py.footprint import block_polygon
+from msgs_py.footprint import block_corners, block_polygon, to_polygons
+from msgs_py.scene import square_half_extent
 from nodes.common.scenes import workspace_for
+from nodes.planner.geometry.obstacles import Bounds
 from nodes.planner.geometry.reach import ur10e_reach
 
 SETS = ("random", "enclosed", "rotated", "permuted")
 GAP = 0.003
 MIN_GAP = 0.002  # between scattered blocks and from the grid's slots, as random_scene
 ATTEMPTS = 20_000
+#: Lattice step (m) and yaws tried when the uniform draws jam (``gap_pose``).
+GAP_STEP = 0.002
+GAP_YAWS = 8
+#: Fresh draws of a random scene whose blocks jam before it fails (``_scattered``).
+REDRAWS = 3
 
 
 def grid_shape(n: int) -> tuple[int, int]:
@@ -84,9 +92,42 @@ def scatter(count: int, workspace: Workspace, taken: list[Pose2D], rng: np.rando
             placed.append(cand)
             grown.append(mine)
             break
-        else:
-            raise RuntimeError(f"no room for block {ids[k]} in {workspace}")
+        else:  # rejection sampling has jammed: search the gaps left, on a fine lattice
+            cand = gap_pose(ids[k], workspace, walls + grown, rng)
+            if cand is None:
+                raise RuntimeError(f"no room for block {ids[k]} in {workspace}")
+            placed.append(cand)
+            grown.append(block_polygon(cand.x, cand.y, cand.theta, s + 2 * MIN_GAP))
     return placed
+
+
+def gap_pose(block: int, workspace: Workspace, taken: list, rng: np.random.Generator
+             ) -> BlockPose | None:
+    """A pose for ``block`` in a gap that uniform draws did not hit (dense scenes jam near
+    density 0.4): every point of a ``GAP_STEP`` lattice over the workspace, in a random
+    order, at ``GAP_YAWS`` random yaws, tested at once against what stands (``taken``,
+    grown by MIN_GAP); None when no gap fits a block. Only reached where the draws of
+    ``scatter`` fail, so scenes that drew before are unchanged."""
+    s, reach = BLOCK_SIZE, ur10e_reach()
+    ws = Bounds(workspace.x_min, workspace.x_max, workspace.y_min, workspace.y_max)
+    tree = shapely.STRtree(taken)
+    for theta in rng.uniform(-math.pi, math.pi, GAP_YAWS):
+        half = square_half_extent(s, float(theta)) + 1e-6
+        xy = ws.grown(-half + 0.5 * s).lattice(s, GAP_STEP, 10**6)
+        xy = xy[reach.contains(xy)]
+        if not len(xy):
+            continue
+        xy = xy[rng.permutation(len(xy))]
+        feet = to_polygons(block_corners(xy[:, 0], xy[:, 1], np.full(len(xy), theta),
+                                         s + 2 * MIN_GAP))
+        hit = np.zeros(len(xy), dtype=bool)
+        if len(taken):
+            hit[tree.query(feet, predicate="intersects")[0]] = True
+        for k in np.flatnonzero(~hit):
+            cand = BlockPose(block, float(xy[k, 0]), float(xy[k, 1]), float(theta))
+            if workspace.contains_square(cand, s):
+                return cand
+    return None
 
 
 def _from_grid(n: int, density: float, seed: int, labeled: bool, empty: list[int],
@@ -108,6 +149,20 @@ def _from_grid(n: int, density: float, seed: int, labeled: bool, empty: list[int
     return Scene(workspace, BLOCK_SIZE, blocks, goal)
 
 
+def _scattered(n: int, workspace: Workspace, seed: int) -> tuple[BlockPose, ...]:
+    """n blocks scattered with the seed's generator; where they jam (no gap left for the
+    last blocks, near density 0.4), drawn again from the streams (seed, 1), (seed, 2), ...
+    (``REDRAWS``): a seed that drew before keeps its scene."""
+    for redraw in range(REDRAWS + 1):
+        rng = np.random.default_rng(seed if redraw == 0 else [seed, redraw])
+        try:
+            return tuple(scatter(n, workspace, [], rng, list(range(n))))
+        except RuntimeError:
+            if redraw == REDRAWS:
+                raise
+    raise AssertionError("unreachable")
+
+
 def instance(kind: str, n: int, density: float, seed: int, labeled: bool = True) -> Scene:
     """The scene of set ``kind`` with n blocks (slot k of a labeled grid is block k's).
 
@@ -117,7 +172,7 @@ def instance(kind: str, n: int, density: float, seed: int, labeled: bool = True)
     """
     if kind in ("random", "rotated"):
         workspace = workspace_for(n, density)
-        blocks = tuple(scatter(n, workspace, [], np.random.default_rng(seed), list(range(n))))
+        blocks = _scattered(n, workspace, seed)
         theta = 0.25 * math.pi if kind == "rotated" else 0.0
         return Scene(workspace, BLOCK_SIZE, blocks, grid_goal(n, workspace, theta, labeled))
     if kind == "enclosed":
