@@ -84,7 +84,7 @@ def reference_entry(kind: str, n: int, density: float, seed: int, opts: argparse
     pirs = plan_scene(scene, config)
     if pirs.ok:
         candidates.append(pirs.plan)
-    if old is not None and validate_plan(entry_plan(old)).ok:
+    if old is not None and old.get("plan") and validate_plan(entry_plan(old)).ok:
         candidates.append(entry_plan(old))
     entry: dict[str, Any] = {"key": scene_key(kind, n, density, seed), "lower_bound":
                              bound.value, "pirs_actions": len(pirs.plan) if pirs.ok else None,
