@@ -130,7 +130,11 @@ def run(opts: argparse.Namespace) -> list[dict[str, Any]]:
             for density in opts.density:
                 for seed in seeds:
                     key = scene_key(kind, n, density, seed)
-                    entry = reference_entry(kind, n, density, seed, opts, known.get(key))
+                    try:
+                        entry = reference_entry(kind, n, density, seed, opts, known.get(key))
+                    except (ValueError, RuntimeError) as err:  # no instance (MessageError)
+                        print(f"  {key}: no instance: {err}", flush=True)
+                        continue
                     rows.append({k: v for k, v in entry.items() if k not in ("plan", "levels")})
                     print(f"  {key}: {entry['status']}, best {entry['best_actions']}, bound "
                           f"{entry['lower_bound']}, pose set >= {entry['pose_set_bound']} "
