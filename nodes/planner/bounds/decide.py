@@ -80,6 +80,9 @@ class HorizonModel:
         self.at = [[[m.NewBoolVar("") for _ in range(self.p)] for _ in steps]
                    for _ in range(self.n)] if problem.labeled else None
         self.occ = [[m.NewBoolVar("") for _ in range(self.p)] for _ in steps]
+        self.active: list = []  # per step: an action happens
+        self.steps: list[tuple] = []  # per step: (src, dst, pick, axis at src, axis at dst)
+        self.movers: list[list] = []  # labeled: per step, which block moves
         self._states()
         for t in range(k):
             self._step(t)
@@ -132,7 +135,6 @@ class HorizonModel:
         m, ps = self.m, self.pp.poses
         now, nxt = self.occ[t], self.occ[t + 1]
         active = m.NewBoolVar("")
-        self.active = getattr(self, "active", [])
         self.active.append(active)
         if t:
             m.AddImplication(active, self.active[t - 1])
@@ -158,7 +160,6 @@ class HorizonModel:
         for u, v in np.argwhere(~ps.carry_ok):
             m.AddBoolOr([pick.Not(), src[u].Not(), dst[v].Not()])
         self._pushes(push, src, dst, now)
-        self.steps = getattr(self, "steps", [])
         self.steps.append((src, dst, pick, axis_u, axis_v))
 
     def _labeled_frame(self, t: int, active) -> None:
@@ -171,7 +172,6 @@ class HorizonModel:
             for q in range(self.p):
                 m.Add(there[q] == here[q]).OnlyEnforceIf(moves[b].Not())
                 m.AddBoolOr([moves[b].Not(), here[q].Not(), there[q].Not()])
-        self.movers = getattr(self, "movers", [])
         self.movers.append(moves)
 
     def _fingers(self, pick, axis, end: list, occ: list) -> None:
