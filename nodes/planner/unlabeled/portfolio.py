@@ -29,8 +29,8 @@ GRAPHS_SHARE = 0.5
 def plan_portfolio(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
                    budget: Budget | None = None, plan_id: str | None = None) -> PlanOutcome:
     """Both unlabeled planners on ``scene``; the outcome with fewer actions (the pebble
-    graphs' on a tie), its metrics saying what each found (``portfolio_<planner>``: actions,
-    -1 for no plan).
+    graphs' on a tie), its metrics those of every run (the kept one's where both have a key)
+    and what each found (``portfolio_<planner>``: actions, -1 for no plan).
 
     Raises:
         MessageError: no goal, a labeled goal, or ``yaw_exact``.
@@ -44,7 +44,9 @@ def plan_portfolio(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig,
         tried.append(plan_assignment(scene, config, ucfg, budget, plan_id))
     found = [o for o in tried if o.ok]
     best = min(found, key=lambda o: len(o.plan.actions)) if found else tried[-1]
-    metrics = dict(best.metrics)
+    metrics: dict[str, float] = {}
+    for outcome in [*tried, best]:  # every run's search figures; the kept one's last
+        metrics.update(outcome.metrics)
     for name, outcome in zip(("pebble_graphs", "assignment"), tried, strict=False):
         metrics[f"portfolio_{name}"] = float(len(outcome.plan.actions)) if outcome.ok else -1.0
     error = "; ".join(o.error for o in tried if o.error) if not found else ""
