@@ -1,1 +1,2 @@
-"""Benchmarks, scene sets and in-process players: the floor above every node package."""
+"""Benchmarks, their seeded scene sets and in-process players: the floor above every node
+package (``densepack-bench``)."""

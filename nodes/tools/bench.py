@@ -26,9 +26,10 @@ SUITES = {
     "sim": "nodes.bench.sim",
     "arm": "nodes.bench.arm",
     "perception": "nodes.detector.bench",
-    "planner": "nodes.planner.bench",
+    "planner": "nodes.bench.planner",
     "cell": "nodes.tools.cell_bench",
-    "unlabeled": "nodes.planner.unlabeled_bench",
+    "unlabeled": "nodes.bench.unlabeled",
+    "reference": "nodes.bench.reference",
     "placement": "nodes.executor.placement_bench",
 }
 
