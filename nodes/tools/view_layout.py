@@ -34,7 +34,7 @@ SCENE_TOPIC = "/view/scene"
 CAMERA_TOPIC = "/camera/image_raw/compressed"
 CAMERA_INFO_TOPIC = "/camera/camera_info"
 STATUS_TOPIC = "/executor/status"
-TCP_TOPIC = "/tcp_pose"
+TCP_TOPIC = "/arm/tcp_pose"
 #: MarkerArrays the nodes publish: listed in the 3-D panel, hidden (the scene draws the same).
 MARKER_TOPICS = ("/blocks/detected/markers", "/plan/markers", "/sim/ground_truth/markers")
 #: The scene whose workspace the 3-D camera looks at.
