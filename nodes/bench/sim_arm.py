@@ -52,7 +52,7 @@ class SimArm:
 
     def set_gripper(self, gap: float) -> float:
         """The executor's gap, as the gripper node sends it to the Robotiq driver."""
-        return self.world.set_knuckle(g85.gap_to_knuckle(gap))
+        return self.world.fingers.set_knuckle(g85.gap_to_knuckle(gap))
 
     def unlock_protective_stop(self) -> tuple[bool, str]:
         return self.core.request_unlock(self.world.time_s)

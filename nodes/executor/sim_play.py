@@ -49,7 +49,7 @@ def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
         if world.time_s > t_end:
             return runner, f"not finished in {limit_s:.0f} s"
         now = world.time_s
-        tick = runner.update(now, tool_pose(world), now, [(now, world.gap())])
+        tick = runner.update(now, tool_pose(world), now, [(now, world.fingers.gap())])
         if tick.stalled and on_stall is not None:
             on_stall(world, runner)
             continue

@@ -33,19 +33,16 @@ from typing import Any
 
 from densepack_interfaces.msg import BlockPoseArray, Disturbance, SimEvents, SimFault
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
-from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
-from std_msgs.msg import Bool, Float64, Float64MultiArray, Header
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
-from trajectory_msgs.msg import JointTrajectory
-from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 from visualization_msgs.msg import MarkerArray
 
-from msgs_py import BlockSet, MessageError, drivers
+from msgs_py import BlockSet, MessageError
 from msgs_py import interface_codecs as ic
 from msgs_py.image_codecs import (
     array_to_compressed_image,
@@ -58,9 +55,8 @@ from msgs_py.status import GRIPPER_OBJECT_STATES
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
-from nodes.common.standard_msgs import joint_state_msg, pose_stamped_msg, trajectory_values
-from nodes.robot import gripper_2f85 as g85
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
+from nodes.sim.driver_side import DriverSide
 from nodes.sim.layout import load_sim_scene, scene_problems
 from nodes.sim.pacing import Pacer
 from nodes.sim.world import SimWorld
@@ -97,7 +93,6 @@ class SimNode(Node):
         self._stop = threading.Event()
         self._wake = threading.Event()  # a command came: the loop may step again
         self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_margin_s)
-        self._driver_published: tuple | None = None  # (safety, robot mode, running) last sent
         self._blackout_until_ns = 0
         self._stopped_opening_since: float | None = None  # sim s; -1: logged
         self._make_interfaces()
@@ -121,26 +116,8 @@ class SimNode(Node):
         """The drivers' names and types (msgs_py.drivers), and the sim's own under /sim/."""
         group = ReentrantCallbackGroup()
         self.pub_clock = self.create_publisher(Clock, "/clock", CLOCK_QOS)
-        # ur_robot_driver
-        self.pub_joints = self.create_publisher(JointState, drivers.JOINT_STATES, RELIABLE)
-        self.pub_tcp = self.create_publisher(PoseStamped, drivers.TCP_POSE_TOPIC, RELIABLE)
-        self.pub_speed = self.create_publisher(Float64, drivers.SPEED_SCALING_TOPIC, RELIABLE)
-        self.pub_safety = self.create_publisher(SafetyMode, drivers.SAFETY_MODE_TOPIC, LATCHED)
-        self.pub_robot_mode = self.create_publisher(RobotMode, drivers.ROBOT_MODE_TOPIC, LATCHED)
-        self.pub_running = self.create_publisher(Bool, drivers.PROGRAM_RUNNING_TOPIC, LATCHED)
-        self.create_subscription(JointTrajectory, drivers.TRAJECTORY_TOPIC, self._on_trajectory,
-                                 RELIABLE, callback_group=group)
-        self.create_subscription(Float64MultiArray, drivers.FORWARD_POSITION_TOPIC,
-                                 self._on_positions, RELIABLE, callback_group=group)
-        for call in drivers.DASHBOARD_TRIGGERS:
-            self.create_service(Trigger, drivers.dashboard_service(call),
-                                lambda req, resp, call=call: self._on_dashboard(call, resp),
-                                callback_group=group)
-        # the Robotiq driver, in its namespace
-        self.pub_knuckle = self.create_publisher(JointState, drivers.GRIPPER_JOINT_STATES,
-                                                 RELIABLE)
-        self.create_subscription(Float64MultiArray, drivers.GRIPPER_COMMAND_TOPIC,
-                                 self._on_knuckle, RELIABLE, callback_group=group)
+        # ur_robot_driver and the Robotiq driver (in its namespace)
+        self.drivers = DriverSide(self, lambda: self.world, self._queue, self.pacer, group)
         # the camera: a driver's topics (frames at camera.rate_hz, and one per render request)
         self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
         self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
@@ -174,47 +151,6 @@ class SimNode(Node):
         self._commands.append(command)
         self._wake.set()
 
-    def _on_trajectory(self, msg: JointTrajectory) -> None:
-        """scaled_joint_trajectory_controller: checked as the controller checks it; a refused
-        one is logged as an error, as the controller logs it."""
-        names, start_s, points = trajectory_values(msg)
-
-        def apply() -> None:
-            error = self.world.command_trajectory(names, start_s, points)
-            if error:
-                self.get_logger().error(f"{drivers.TRAJECTORY_TOPIC}: {error}",
-                                        throttle_duration_sec=1.0)
-                return
-            self._paced()
-        self._queue(apply)
-
-    def _paced(self) -> None:
-        commanded = self.world.commanded_until()
-        if commanded is not None:
-            self.pacer.on_command(*commanded)
-
-    def _on_positions(self, msg: Float64MultiArray) -> None:
-        values = [float(v) for v in msg.data]
-
-        def apply() -> None:
-            error = self.world.command_positions(values)
-            if error:
-                self.get_logger().error(f"{drivers.FORWARD_POSITION_TOPIC}: {error}",
-                                        throttle_duration_sec=1.0)
-                return
-            self._paced()
-        self._queue(apply)
-
-    def _on_knuckle(self, msg: Float64MultiArray) -> None:
-        """The Robotiq position controller: one value, the knuckle joint (rad)."""
-        values = [float(v) for v in msg.data]
-        if len(values) != 1 or not math.isfinite(values[0]):
-            self.get_logger().error(
-                f"{drivers.GRIPPER_COMMAND_TOPIC}: expected one finite value for "
-                f"{g85.KNUCKLE_JOINT}, got {values}")
-            return
-        self._queue(lambda: self.world.set_knuckle(values[0]))
-
     def _on_speed_slider(self, msg: Float64) -> None:
         fraction = float(msg.data)
         if not (math.isfinite(fraction) and 0.0 <= fraction <= 1.0):
@@ -243,7 +179,7 @@ class SimNode(Node):
 
         def apply() -> None:
             try:
-                self.world.disturb(nudge.block, nudge.dx, nudge.dy)
+                self.world.hand.disturb(nudge.block, nudge.dx, nudge.dy)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/disturb refused: {err}")
         self._queue(apply)
@@ -259,7 +195,7 @@ class SimNode(Node):
 
         def apply() -> None:
             try:
-                self.world.inject(fault)
+                self.world.hand.inject(fault)
             except ValueError as err:
                 self.get_logger().warning(f"/sim/fault refused: {err}")
                 return
@@ -288,19 +224,6 @@ class SimNode(Node):
             self._publish_events()
             return f"reset: {len(scene.blocks)} blocks at t = {self.world.time_s:.3f} s"
         return self._answer(apply, response)
-
-    def _on_dashboard(self, call: str, response):
-        """A dashboard call, answered in the dashboard server's words."""
-        future: concurrent.futures.Future = concurrent.futures.Future()
-        self._queue(lambda: future.set_result(self.world.dashboard(call)))
-        try:
-            answer = future.result(timeout=SERVICE_TIMEOUT_S)
-            response.success, response.message = answer.success, answer.message
-        except concurrent.futures.TimeoutError:
-            response.success, response.message = False, "the sim did not answer"
-        if response.success:
-            self.get_logger().info(f"dashboard {call}: {response.message}")
-        return response
 
     def _answer(self, fn: Callable[[], str], response):
         future: concurrent.futures.Future = concurrent.futures.Future()
@@ -348,7 +271,7 @@ class SimNode(Node):
                     shared = time.monotonic()
                 self.world.step()
                 self._publish_due(every)
-                self._publish_driver_state()
+                self.drivers.publish_robot_state()
             except Exception as err:  # never let the loop die silently
                 if not self.context.ok():
                     break  # shutting down: publishers are gone
@@ -367,31 +290,9 @@ class SimNode(Node):
         if every["camera"] and k % every["camera"] == 0:
             self._publish_camera()
 
-    def _publish_driver_state(self) -> None:
-        """Safety mode, robot mode and program running, latched, on a change (as ur_robot_driver's
-        io_and_status_controller publishes them)."""
-        state = self.world.robot_state
-        now = (state.safety_mode, state.robot_mode, state.program_running)
-        if now == self._driver_published:
-            return
-        if self._driver_published is not None and state.stop_reason and \
-                now[0] != self._driver_published[0]:
-            self.get_logger().warning(f"protective stop: {state.stop_reason}")
-        self._driver_published = now
-        self.pub_safety.publish(SafetyMode(mode=state.safety_mode))
-        self.pub_robot_mode.publish(RobotMode(mode=state.robot_mode))
-        self.pub_running.publish(Bool(data=state.program_running))
-
     def _publish_state(self) -> None:
-        stamp = ns_to_stamp(self.world.time_ns)
-        names, q, v = self.world.joint_state()
-        self.pub_joints.publish(joint_state_msg(stamp, names, q, v))
-        position, quat = self.world.tcp_pose()
-        self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat, drivers.BASE_FRAME))
-        self.pub_speed.publish(Float64(data=100.0 * self.world.robot_state.speed_scaling))
-        knuckle, rate = self.world.knuckle()
-        self.pub_knuckle.publish(joint_state_msg(stamp, [g85.KNUCKLE_JOINT], [knuckle], [rate]))
-        gap, requested, code = self.world.gripper_status()
+        self.drivers.publish_state(ns_to_stamp(self.world.time_ns))
+        gap, requested, code = self.world.fingers.status()
         self._log_stalled_opening(code == STOPPED_OPENING, gap, requested)
 
     def _log_stalled_opening(self, stopped: bool, gap: float, requested: float) -> None:
@@ -408,7 +309,7 @@ class SimNode(Node):
             self._stopped_opening_since = -1.0  # logged
             self.get_logger().warning(
                 f"fingers stopped opening at {gap * 1e3:.1f} mm (asked for "
-                f"{requested * 1e3:.1f} mm): {self.world.finger_contacts()}")
+                f"{requested * 1e3:.1f} mm): {self.world.fingers.contacts()}")
 
     def _publish_truth(self) -> None:
         truth = BlockSet(tuple(self.world.block_poses()), self.world.time_ns, "world",

@@ -34,7 +34,7 @@ def carry_with(world_factory, fault, watch=None, **config):
 
     def on_tick(w):
         if carrying:
-            reports.append((w.time_s, *w.gripper_status()))
+            reports.append((w.time_s, *w.fingers.status()))
             if watch is not None:
                 watch(w)
 
@@ -54,14 +54,14 @@ def test_without_a_fault_the_block_is_held_through_the_carry_and_placed(world_fa
 def test_finger_contacts_name_the_held_block_and_an_empty_gripper_says_so(world_factory):
     """The sim logs this when fingers stop opening: it must say what they touch."""
     said = []
-    world, _, _ = carry_with(world_factory, lambda w: said.append(w.finger_contacts()))
+    world, _, _ = carry_with(world_factory, lambda w: said.append(w.fingers.contacts()))
     for link in world.finger_joints:  # both fingers touch it
         assert f"finger link {link} - block 0 (link -1) " in said[0]
-    assert world.finger_contacts() == "no finger contact"  # released, risen
+    assert world.fingers.contacts() == "no finger contact"  # released, risen
 
 
 def test_a_drop_shows_in_the_gripper_report_within_a_tenth_of_a_second(world_factory):
-    world, reports, t0 = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.4))
+    world, reports, t0 = carry_with(world_factory, lambda w: w.fingers.slippery_pads(0.0, 0.4))
     empty = next(t for t, gap, _, obj in reports if obj != 2 or gap < 0.0508 - 0.002)
     assert empty - t0 <= 0.1
     assert world.block_poses()[0].pose.distance_to(GOAL) > 0.1  # it fell on the way
@@ -75,7 +75,7 @@ def test_a_slip_leaves_the_block_in_the_fingers(world_factory):
 
     # (the block then hangs 13 mm lower and meets the table early as it is lowered: a
     # protective stop, which the executor answers as in test_core; off here, to carry on)
-    _, reports, _ = carry_with(world_factory, lambda w: w.slippery_pads(0.0, 0.05), watch,
+    _, reports, _ = carry_with(world_factory, lambda w: w.fingers.slippery_pads(0.0, 0.05), watch,
                                tool_force_limit=0.0)
     carry = reports[:25]
     # the block slides down between the pads (more than a centimetre), but the fingers never
@@ -104,28 +104,28 @@ def test_blocks_differ_from_one_another_seeded(world_factory):
 def test_a_gripper_command_takes_effect_after_its_latency(world_factory):
     world = world_factory([], gripper_latency_s=0.05)
     world.set_gripper(0.03)
-    assert world.gripper_status()[1] == 0.085  # not there yet
+    assert world.fingers.status()[1] == 0.085  # not there yet
     world.step(round(0.06 * 240))
-    assert world.gripper_status()[1] == pytest.approx(0.03)
+    assert world.fingers.status()[1] == pytest.approx(0.03)
 
 
 def test_armed_faults_strike_at_their_moment(world_factory):
     """Armed drop: the block falls once lifted. Armed miss: the open fingers come down on
     nothing (the block was knocked aside) and close to zero."""
     world, reports, _ = carry_with(world_factory, lambda w: None)
-    assert world.armed is None
-    world, reports, _ = carry_with(world_factory, lambda w: w.arm_fault("drop"))
+    assert world.hand.armed is None
+    world, reports, _ = carry_with(world_factory, lambda w: w.hand.arm_fault("drop"))
     assert any(gap < 0.0508 - 0.002 for _, gap, _, _ in reports[:10])
     assert any(e["type"] == "fault" and e["reason"] == "drop" for e in world.monitor.events)
 
     world = world_factory([(0, START.x, START.y, START.theta)])
     world.step(24)
-    world.arm_fault("miss")
+    world.hand.arm_fault("miss")
     closed = []
 
     def after_grip(w, label):
         if label.endswith(": lift"):
-            closed.append(w.gripper_status())
+            closed.append(w.fingers.status())
 
     play(world, action_steps(PickPlace(0, START, GOAL, 0), START, GEO, CFG), CFG, after_grip)
     gap, _, obj = closed[0]
@@ -144,7 +144,7 @@ def test_a_missed_grasp_knocks_the_block_to_the_side_with_room_not_into_its_neig
                      START.theta)
         world = world_factory([(0, START.x, START.y, START.theta), neighbour])
         world.step(24)
-        world.arm_fault("miss")
+        world.hand.arm_fault("miss")
         play(world, action_steps(PickPlace(0, START, GOAL, 0), START, GEO, CFG), CFG,
              lambda w, label: None)
         moved = {b.id: b.pose for b in world.block_poses()}[0]
@@ -188,6 +188,6 @@ def test_the_placement_that_stalled_lets_go_at_once(world_factory):
     world.step(24)
     steps = action_steps(PickPlace(0, STALL_PICK, STALL_GOAL, 1), STALL_PICK, GEO, CFG)
     runner, error = play_steps(world, steps, CFG, limit_s=20.0)
-    assert not error, f"{error}; {world.finger_contacts()}"
-    assert runner.finished and world.gap() > 0.068
+    assert not error, f"{error}; {world.fingers.contacts()}"
+    assert runner.finished and world.fingers.gap() > 0.068
     assert world.block_poses()[0].pose.distance_to(STALL_GOAL) < 0.001

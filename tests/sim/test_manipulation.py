@@ -49,7 +49,7 @@ def test_grasp_carry_half_a_metre_and_place_within_2mm_1deg(world_factory):
     held, _ = world.block_pose_3d(0)
     assert held[2] > 0.12  # lifted by friction alone ...
     assert world.client.getNumConstraints() == 1  # ... the finger coupling is the only one
-    assert world.gap() > 0.049  # fingers stopped on the 50.8 mm block
+    assert world.fingers.gap() > 0.049  # fingers stopped on the 50.8 mm block
     streamer.move_to([0.60, 0.25, scripted.SAFE_Z], speed=0.25)  # 0.5 m at 0.25 m/s
     scripted.place(streamer, 0.60, 0.25, 0.3)
     block = world.block_poses()[0]
@@ -76,11 +76,11 @@ def test_two_finger_push_keeps_the_line(world_factory):
 
 def test_disturbance_moves_a_block_about_that_much(world_factory):
     world = world_factory([(3, 0.70, 0.0, 0.0)])
-    world.disturb(3, 0.03, -0.02)
+    world.hand.disturb(3, 0.03, -0.02)
     world.step(round(3.0 / world.config.dt))
     block = world.block_poses()[0]
     assert math.hypot(block.x - 0.73, block.y + 0.02) < 0.005
-    assert not world.disturbances
+    assert not world.hand.disturbances
 
 
 def test_event_monitor_counts_a_finger_landing_on_a_neighbour(world_factory):
@@ -98,7 +98,7 @@ def test_event_monitor_counts_a_finger_landing_on_a_neighbour(world_factory):
 
 def test_block_pushed_out_of_the_workspace_is_lost(world_factory):
     world = world_factory([(2, 0.92, 0.0, 0.0)])
-    world.disturb(2, 0.09, 0.0)
+    world.hand.disturb(2, 0.09, 0.0)
     world.step(round(4.0 / world.config.dt))
     assert world.monitor.blocks_lost == 1
     assert world.monitor.events[-1]["reason"] == "out of the workspace"
@@ -123,14 +123,14 @@ def _finger_onto_neighbour(world_factory, **config):
 
 def test_a_finger_landing_on_a_block_stops_the_arm_before_the_block_tips(world_factory):
     world, _ = _finger_onto_neighbour(world_factory)
-    assert "N on the robot" in world.robot_state.stop_reason and world.protective_stops == 1
+    assert "N on the robot" in world.robot_state.stop_reason and world.guard.protective_stops == 1
     assert world.tcp_pose()[0][2] > 0.045  # stopped on the block's top (50.8 mm)
     assert _tilt_deg(world, 1) < 3.0
     # without the force limit the arm goes on down to grasp height and drives the block out of
     # its way: tipped over, or shoved aside (streamed into the trajectory controller, which
     # starts every snippet from the measured joints, it mostly slides)
     world, _ = _finger_onto_neighbour(world_factory, tool_force_limit=0.0)
-    assert world.protective_stops == 0 and world.tcp_pose()[0][2] < 0.02
+    assert world.guard.protective_stops == 0 and world.tcp_pose()[0][2] < 0.02
     moved = world.block_poses()[1]
     assert _tilt_deg(world, 1) > 45.0 or math.hypot(moved.x - (0.60 + 0.0508 + 0.006),
                                                       moved.y) > 0.005
@@ -152,5 +152,5 @@ def test_after_an_unlock_the_arm_backs_off_but_may_not_press_again(world_factory
     assert not streamer.rejections and not world.robot_state.stop_reason
     assert world.tcp_pose()[0][2] == pytest.approx(0.08, abs=1e-3)
     streamer.move_to([0.60, 0.0, 0.012], speed=0.37)  # down onto it again: stopped again
-    assert world.robot_state.stop_reason and world.protective_stops == 2
+    assert world.robot_state.stop_reason and world.guard.protective_stops == 2
     assert _tilt_deg(world, 1) < 3.0
