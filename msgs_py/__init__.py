@@ -1,6 +1,6 @@
 """densepack's typed message layer: dataclasses, versioned documents and ROS codecs.
 
-Everything here except ``msgs_py.ros_codecs`` and ``msgs_py.interface_codecs`` (neither is
+Everything here except the ``msgs_py.ros`` package (its codecs to and from ROS messages; not
 imported here) is free of ROS imports, so planners and tests can use it without a ROS
 installation.
 """

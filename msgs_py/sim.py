@@ -4,7 +4,7 @@
 ``SimEvent``: one counted event (an unintended contact, two blocks touching while one moves, a
 block lost); ``Disturbance``: a simulated hand nudging a block (``/sim/disturb``, fault
 injection). Like the rest of msgs_py they validate themselves on construction and import no
-ROS package; the codecs are in ``msgs_py.interface_codecs``.
+ROS package; the codecs are in ``msgs_py.ros.sim``.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 The planner's and the executor's are flat records: a ``state`` from a fixed vocabulary,
 counters, the last error in words and a ``metrics`` dict of figures (seconds, counts) for
 dashboards and reports. The gripper's is what a 2F-85 driver reports. The codecs to
-``densepack_interfaces`` are in ``msgs_py.interface_codecs``.
+``densepack_interfaces`` are in ``msgs_py.ros.status``.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Dataclass halves of ``densepack_interfaces/srv/PlanScene`` (``PlanRequest``, ``P
 and ``densepack_interfaces/action/Rearrange`` (goal: a goal layout, i.e. a ``Scene`` without
 blocks; ``RearrangeFeedback``; ``RearrangeResult`` with one ``BlockError`` per block). Like the
 rest of msgs_py they validate themselves on construction and import no ROS package; the
-codecs are in ``msgs_py.interface_codecs``.
+codecs are in ``msgs_py.ros``.
 """
 
 from __future__ import annotations

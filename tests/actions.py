@@ -8,7 +8,7 @@ import time
 from densepack_interfaces.action import Rearrange
 from rclpy.action import ActionClient
 
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from nodes.common.harness import wait_for_future
 
 
@@ -30,13 +30,13 @@ class Goals:
     def send(self, goal: Rearrange.Goal):
         future = self.client.send_goal_async(
             goal, feedback_callback=lambda fb: self.feedback.append(
-                ic.rearrange_feedback_from_msg(fb.feedback)))
+                msg_codecs.rearrange_feedback_from_msg(fb.feedback)))
         return wait_future(future, "send_goal", self.timeout)
 
     def result(self, handle, timeout: float):
         """(GoalStatus status, decoded RearrangeResult) of an accepted goal."""
         answer = wait_future(handle.get_result_async(), "result", timeout)
-        return answer.status, ic.rearrange_result_from_msg(answer.result)
+        return answer.status, msg_codecs.rearrange_result_from_msg(answer.result)
 
     def wait_feedback(self, predicate, timeout: float):
         deadline = time.monotonic() + timeout

@@ -28,8 +28,8 @@ from trajectory_msgs.msg import JointTrajectory
 from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 
 from msgs_py import MessageError, drivers
-from msgs_py import interface_codecs as ic
-from msgs_py.ros_codecs import ns_to_stamp
+from msgs_py import ros as msg_codecs
+from msgs_py.ros import ns_to_stamp
 from nodes.arm.config import ARM_PARAMETERS, ArmConfig
 from nodes.arm.core import ArmCore, ArmOutputs
 from nodes.common.params import declare_config
@@ -202,7 +202,7 @@ class ArmNode(Node):
         if key == self._status_sent and now - self._status_at < 1.0 / self.config.status_rate_hz:
             return
         self._status_sent, self._status_at = key, now
-        self.pub_status.publish(ic.arm_status_to_msg(status))
+        self.pub_status.publish(msg_codecs.arm_status_to_msg(status))
 
 
 TOPICS = """

@@ -38,8 +38,8 @@ from std_msgs.msg import Float64, Header
 
 from msgs_py import MessageError, load_scene
 from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
-from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
-from msgs_py.ros_codecs import stamp_to_ns
+from msgs_py.ros import stamp_to_ns
+from msgs_py.ros.image import camera_info_to_intrinsics, image_to_array
 from nodes.calibration.arm_routine import ArmCalibration, ArmRoutineConfig
 from nodes.common.params import declare_config, describe_config, param
 from nodes.common.paths import config_path

@@ -25,9 +25,8 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import MessageError
-from msgs_py.image_codecs import camera_info_to_intrinsics, image_to_array
-from msgs_py.interface_codecs import block_set_to_msg, placement_from_msg
-from msgs_py.ros_codecs import block_set_to_markers, stamp_to_ns
+from msgs_py.ros import block_set_to_markers, block_set_to_msg, placement_from_msg, stamp_to_ns
+from msgs_py.ros.image import camera_info_to_intrinsics, image_to_array
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE, camera_subscription_qos

@@ -32,7 +32,7 @@ from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from msgs_py import ExecutorStatus, MessageError
-from msgs_py.interface_codecs import (
+from msgs_py.ros import (
     arm_status_from_msg,
     block_set_from_msg,
     executor_status_to_msg,
@@ -40,8 +40,8 @@ from msgs_py.interface_codecs import (
     placement_to_msg,
     plan_from_msg,
     planner_status_from_msg,
+    stamp_to_ns,
 )
-from msgs_py.ros_codecs import stamp_to_ns
 from msgs_py.status import ArmStatus as ArmStatusRecord
 from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config

@@ -39,7 +39,7 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 
 from msgs_py import BlockSet, MessageError, PlannerStatus
-from msgs_py.interface_codecs import (
+from msgs_py.ros import (
     goal_layout_to_msg,
     rearrange_feedback_to_msg,
     rearrange_goal_from_msg,

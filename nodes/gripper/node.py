@@ -22,7 +22,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
 from msgs_py import MessageError, drivers
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from nodes.common.joints import values_by_name
 from nodes.common.params import declare_config
 from nodes.common.qos import RELIABLE
@@ -83,7 +83,7 @@ class GripperNode(Node):
         if stuck:
             self.get_logger().error(f"{stuck} (reactivate: {drivers.GRIPPER_REACTIVATE})")
         if status is not None:
-            self.pub_status.publish(ic.gripper_status_to_msg(status))
+            self.pub_status.publish(msg_codecs.gripper_status_to_msg(status))
 
 
 TOPICS = """

@@ -12,7 +12,7 @@ from geometry_msgs.msg import Point
 from visualization_msgs.msg import Marker, MarkerArray
 
 from msgs_py import Plan, Push, Scene
-from msgs_py.ros_codecs import yaw_to_quaternion_xyzw
+from msgs_py.ros import yaw_to_quaternion_xyzw
 from nodes.planner.unlabeled.goal_check import goal_slots
 
 COLORS = {

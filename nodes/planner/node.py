@@ -33,7 +33,8 @@ from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError, PlannerStatus, Scene
 from msgs_py.cell import TABLE_MARGIN
-from msgs_py.interface_codecs import (
+from msgs_py.poses import yaw_difference
+from msgs_py.ros import (
     block_set_from_msg,
     goal_layout_from_msg,
     plan_reply_to_msg,
@@ -41,7 +42,6 @@ from msgs_py.interface_codecs import (
     plan_to_msg,
     planner_status_to_msg,
 )
-from msgs_py.poses import yaw_difference
 from msgs_py.tasks import PlanReply, PlanRequest
 from nodes.common.params import config_overrides, configs_from_parameters, declare_config
 from nodes.common.qos import LATCHED, RELIABLE

@@ -43,13 +43,13 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError
-from msgs_py import interface_codecs as ic
-from msgs_py.image_codecs import (
+from msgs_py import ros as msg_codecs
+from msgs_py.ros import block_set_to_markers, ns_to_stamp
+from msgs_py.ros.image import (
     array_to_compressed_image,
     array_to_image,
     intrinsics_to_camera_info,
 )
-from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp
 from msgs_py.sim import SimEvents as SimEventsRecord
 from msgs_py.status import GRIPPER_OBJECT_STATES
 from nodes.common.params import declare_config
@@ -164,7 +164,7 @@ class SimNode(Node):
 
     def _on_status(self, msg: ExecutorStatusMsg) -> None:
         try:
-            status = ic.executor_status_from_msg(msg)
+            status = msg_codecs.executor_status_from_msg(msg)
         except (MessageError, ValueError) as err:
             self.get_logger().warning(f"ignoring a malformed /executor/status: {err}")
             return
@@ -172,7 +172,7 @@ class SimNode(Node):
 
     def _on_disturb(self, msg: Disturbance) -> None:
         try:
-            nudge = ic.disturbance_from_msg(msg)
+            nudge = msg_codecs.disturbance_from_msg(msg)
         except (MessageError, ValueError) as err:
             self.get_logger().warning(f"/sim/disturb refused: {err}")
             return
@@ -188,7 +188,7 @@ class SimNode(Node):
         """Fault injection: arm a drop, slip or miss for the next action, take a block out,
         put one in, or change the camera's noise."""
         try:
-            fault = ic.sim_fault_from_msg(msg)
+            fault = msg_codecs.sim_fault_from_msg(msg)
         except (MessageError, ValueError) as err:
             self.get_logger().warning(f"/sim/fault refused: {err}")
             return
@@ -314,7 +314,7 @@ class SimNode(Node):
     def _publish_truth(self) -> None:
         truth = BlockSet(tuple(self.world.block_poses()), self.world.time_ns, "world",
                          self.scene.block_size)
-        self.pub_truth.publish(ic.block_set_to_msg(truth))
+        self.pub_truth.publish(msg_codecs.block_set_to_msg(truth))
         self.pub_truth_markers.publish(block_set_to_markers(truth))
 
     def _publish_events(self) -> None:
@@ -326,7 +326,7 @@ class SimNode(Node):
                                     throttle_duration_sec=10.0)
             events = SimEventsRecord(summary["unintended_contacts"], summary["blocks_lost"],
                                      stamp_ns=self.world.time_ns)
-        self.pub_events.publish(ic.sim_events_to_msg(events))
+        self.pub_events.publish(msg_codecs.sim_events_to_msg(events))
 
     def _publish_camera(self) -> int:
         stamp_ns = self.world.time_ns

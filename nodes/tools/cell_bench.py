@@ -158,14 +158,14 @@ class FaultInjector:
         self.note = note
 
     def _nudge(self, block: int, dx: float, dy: float, when: str) -> None:
-        from msgs_py.interface_codecs import disturbance_to_msg
+        from msgs_py.ros import disturbance_to_msg
         from msgs_py.sim import Disturbance
 
         self._disturb.publish(disturbance_to_msg(Disturbance(block, dx, dy)))
         self._fired(f"block {block} nudged by ({dx * 1e3:.0f}, {dy * 1e3:.0f}) mm {when}")
 
     def _sim_fault(self, fault: SimFaultRecord, note: str) -> None:
-        from msgs_py.interface_codecs import sim_fault_to_msg
+        from msgs_py.ros import sim_fault_to_msg
 
         self._fault.publish(sim_fault_to_msg(fault))
         self._fired(note)

@@ -65,7 +65,7 @@ class RunMonitor:
         from rclpy.node import Node
         from sensor_msgs.msg import Image
 
-        from msgs_py import interface_codecs as ic
+        from msgs_py import ros as msg_codecs
         from nodes.common.qos import LATCHED, RELIABLE, SENSOR
 
         self.node = Node("densepack_run", context=context)
@@ -87,14 +87,16 @@ class RunMonitor:
         n.create_subscription(ExecutorStatus, "/executor/status", self._on_executor_status,
                               LATCHED)
         n.create_subscription(PlannerStatusMsg, "/planner/status",
-                              self._keep("planner_status", ic.planner_status_from_msg), LATCHED)
-        n.create_subscription(PlanMsg, "/plan", self._keep("plans", ic.plan_from_msg), LATCHED)
+                              self._keep("planner_status", msg_codecs.planner_status_from_msg),
+                              LATCHED)
+        n.create_subscription(PlanMsg, "/plan", self._keep("plans", msg_codecs.plan_from_msg),
+                              LATCHED)
         n.create_subscription(BlockPoseArray, "/sim/ground_truth",
-                              self._keep("ground_truth", ic.block_set_from_msg), RELIABLE)
+                              self._keep("ground_truth", msg_codecs.block_set_from_msg), RELIABLE)
         n.create_subscription(BlockPoseArray, "/blocks/detected",
-                              self._keep("detection", ic.block_set_from_msg), RELIABLE)
+                              self._keep("detection", msg_codecs.block_set_from_msg), RELIABLE)
         n.create_subscription(SimEvents, "/sim/events",
-                              self._keep("events", ic.sim_events_from_msg), LATCHED)
+                              self._keep("events", msg_codecs.sim_events_from_msg), LATCHED)
         n.create_subscription(Image, "/camera/image_raw", self._on_image, SENSOR)
         # Simulated time comes from the ground truth's stamps (10 Hz), not /clock: a /clock
         # subscription costs a Python callback per message.
@@ -122,8 +124,7 @@ class RunMonitor:
 
     def _on_executor_status(self, msg: Any) -> None:
         from msgs_py import MessageError
-        from msgs_py.interface_codecs import executor_status_from_msg
-        from msgs_py.ros_codecs import stamp_to_ns
+        from msgs_py.ros import executor_status_from_msg, stamp_to_ns
 
         try:
             status = executor_status_from_msg(msg)
@@ -154,7 +155,7 @@ class GoalSender:
     feedback and followed: sending it again would only be refused, the first one running."""
 
     def __init__(self, monitor: RunMonitor, layout: Scene) -> None:
-        from msgs_py.interface_codecs import rearrange_goal_to_msg
+        from msgs_py.ros import rearrange_goal_to_msg
 
         self.monitor = monitor
         self.goal = rearrange_goal_to_msg(layout)
@@ -223,7 +224,7 @@ class GoalSender:
         # else: a resend refused while the old goal still runs: keep following that one
 
     def _on_feedback(self, message: Any) -> None:
-        from msgs_py.interface_codecs import rearrange_feedback_from_msg
+        from msgs_py.ros import rearrange_feedback_from_msg
 
         self._heard_at = time.monotonic()
         if self.handle is None and bytes(message.goal_id.uuid) in self._sent_ids:
@@ -234,7 +235,7 @@ class GoalSender:
             self.monitor.timeline.on_corrections(feedback.corrections)
 
     def _finish(self, answer: Any) -> None:
-        from msgs_py.interface_codecs import rearrange_result_from_msg
+        from msgs_py.ros import rearrange_result_from_msg
 
         result = rearrange_result_from_msg(answer.result)
         with self.monitor.lock:

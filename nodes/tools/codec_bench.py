@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from msgs_py import image_codecs
+from msgs_py.ros import image as image_codecs
 
 #: (name, codec, PNG level or JPEG quality); ``raw`` is the uncompressed frame.
 VARIANTS = (("raw", None, 0), ("png 1", "png", 1), ("png 9", "png", 9),

@@ -15,7 +15,7 @@ from densepack_interfaces.msg import GoalLayout
 from rclpy.node import Node
 
 from msgs_py import MessageError, Scene, load_scene
-from msgs_py.interface_codecs import goal_layout_to_msg
+from msgs_py.ros import goal_layout_to_msg
 from nodes.common.params import declare_config, param
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED

@@ -31,7 +31,7 @@ from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
 from msgs_py import MessageError
-from msgs_py.interface_codecs import block_set_from_msg, goal_layout_from_msg, plan_from_msg
+from msgs_py.ros import block_set_from_msg, goal_layout_from_msg, plan_from_msg
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import split_ros_args
 from nodes.tools import bags

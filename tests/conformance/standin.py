@@ -34,7 +34,7 @@ from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 
 from msgs_py import drivers
 from msgs_py.cell import GRIPPER_STROKE
-from msgs_py.ros_codecs import ns_to_stamp
+from msgs_py.ros import ns_to_stamp
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.standard_msgs import joint_state_msg, pose_stamped_msg
 from nodes.common.transforms import matrix_to_quaternion

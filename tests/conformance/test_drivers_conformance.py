@@ -26,7 +26,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from msgs_py import drivers
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py.cell import BLOCK_SIZE
 from nodes.arm.node import ArmNode
 from nodes.common.qos import LATCHED
@@ -126,9 +126,9 @@ class Cell:
         self.gripper.publish(Float64(data=gap))
 
         def settled(msg: GripperStatus) -> bool:
-            status = ic.gripper_status_from_msg(msg)
+            status = msg_codecs.gripper_status_from_msg(msg)
             return (abs(status.requested_gap - gap) < 1e-6 and status.object != "moving")
-        return ic.gripper_status_from_msg(self.ros.wait_for_message(
+        return msg_codecs.gripper_status_from_msg(self.ros.wait_for_message(
             "/gripper/status", GripperStatus, settled, timeout=30))
 
     def protective_stop(self) -> None:
@@ -137,7 +137,7 @@ class Cell:
         if self.backend == "standin":
             assert self.ros.call_service("/standin/protective_stop", Trigger).success
             return
-        block = ic.block_set_from_msg(self.ros.wait_for_message(
+        block = msg_codecs.block_set_from_msg(self.ros.wait_for_message(
             "/sim/ground_truth", BlockPoseArray)).blocks[0]
         self.grip(0.0)
         self.go_to([block.x, block.y, 0.15])
@@ -175,7 +175,7 @@ def test_the_arm_node_tracks_a_cartesian_path_within_1_mm(cell):
 
 def test_the_gripper_node_closes_on_a_block_and_reports_it(cell):
     if cell.backend == "sim":  # bring the open fingers down around block 0
-        block = ic.block_set_from_msg(cell.ros.wait_for_message(
+        block = msg_codecs.block_set_from_msg(cell.ros.wait_for_message(
             "/sim/ground_truth", BlockPoseArray)).blocks[0]
         cell.grip(BLOCK_SIZE + 0.02)
         cell.go_to([block.x, block.y, 0.15], yaw=block.theta)

@@ -12,7 +12,7 @@ from pathlib import Path
 from densepack_interfaces.msg import BlockPoseArray
 
 from msgs_py import Scene
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE
 from nodes.executor.verify import goal_errors
@@ -36,7 +36,7 @@ def start_cell(ros, scene_file: Path | str, action: bool = False) -> None:
 def assert_every_block_at_its_goal(ros, scene: Scene, slots: int) -> None:
     """By the sim's ground truth, each of the ``slots`` goal slots holds its block within
     3 mm and 2 degrees."""
-    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
+    truth = msg_codecs.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
                                                        timeout=30, qos=RELIABLE))
     errors = goal_errors({b.id: b.pose for b in truth.blocks}, scene)
     assert len(errors) == slots

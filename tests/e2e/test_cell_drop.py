@@ -15,7 +15,7 @@ from action_msgs.msg import GoalStatus
 from densepack_interfaces.msg import BlockPoseArray, SimEvents
 from densepack_interfaces.msg import SimFault as SimFaultMsg
 
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py import save_scene
 from msgs_py.sim import SimFault
 from nodes.common.qos import LATCHED
@@ -38,16 +38,16 @@ def test_a_block_dropped_mid_carry_is_noticed_recovered_and_the_goal_still_reach
     ros.wait_for_subscribers(faults)
     goals = Goals(ros, timeout=60)
 
-    handle = goals.send(ic.rearrange_goal_to_msg(goal_layout(scene)))
+    handle = goals.send(msg_codecs.rearrange_goal_to_msg(goal_layout(scene)))
     assert handle.accepted
     goals.wait_feedback(lambda f: f.state == "running" and f.action_index >= 1, timeout=300)
-    faults.publish(ic.sim_fault_to_msg(SimFault("drop")))
+    faults.publish(msg_codecs.sim_fault_to_msg(SimFault("drop")))
     status, result = goals.result(handle, timeout=900)
 
     assert status == GoalStatus.STATUS_SUCCEEDED, result.detail
     assert result.metrics.get("faults_dropped", 0.0) >= 1, result.metrics  # it was noticed
-    events = ic.sim_events_from_msg(ros.wait_for_message("/sim/events", SimEvents, timeout=30,
-                                                         qos=LATCHED))
+    events_msg = ros.wait_for_message("/sim/events", SimEvents, timeout=30, qos=LATCHED)
+    events = msg_codecs.sim_events_from_msg(events_msg)
     assert any(e.type == "fault" for e in events.events), events.to_dict()
     assert events.blocks_lost == 0
     assert_every_block_at_its_goal(ros, scene, 4)

@@ -13,7 +13,7 @@ from action_msgs.msg import GoalStatus
 from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus, GripperStatus, SimEvents
 from geometry_msgs.msg import PoseStamped
 
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py import save_scene
 from nodes.common.qos import LATCHED
 from nodes.sim.layout import random_sim_scene
@@ -31,7 +31,7 @@ def test_four_blocks_reach_their_grid_through_the_action_after_a_cancel(ros, tmp
     start_cell(ros, scene_file, action=True)
     ros.wait_for_message("/blocks/detected", BlockPoseArray, timeout=120)
     goals = Goals(ros, timeout=60)
-    goal = ic.rearrange_goal_to_msg(goal_layout(scene))
+    goal = msg_codecs.rearrange_goal_to_msg(goal_layout(scene))
 
     first = goals.send(goal)
     assert first.accepted
@@ -56,7 +56,7 @@ def test_four_blocks_reach_their_grid_through_the_action_after_a_cancel(ros, tmp
     assert result.metrics["actions_executed"] >= 4
 
     assert_every_block_at_its_goal(ros, scene, 4)
-    events = ic.sim_events_from_msg(ros.wait_for_message("/sim/events", SimEvents, timeout=30,
-                                                         qos=LATCHED))
+    events_msg = ros.wait_for_message("/sim/events", SimEvents, timeout=30, qos=LATCHED)
+    events = msg_codecs.sim_events_from_msg(events_msg)
     assert events.blocks_lost == 0
     assert events.unintended_contacts == 0, events.to_dict()["events"]

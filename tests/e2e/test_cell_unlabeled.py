@@ -10,8 +10,8 @@ import pytest
 from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus
 from densepack_interfaces.msg import Plan as PlanMsg
 
-from msgs_py import interface_codecs as ic
 from msgs_py import load_scene
+from msgs_py import ros as msg_codecs
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
 from nodes.planner.unlabeled.goal_check import unfilled_slots
@@ -35,7 +35,7 @@ def test_cell_fills_an_unlabeled_grid(ros):
         "/executor/status", ExecutorStatus, qos=LATCHED, timeout=900,
         predicate=lambda m: m.state in (ExecutorStatus.STATE_DONE, ExecutorStatus.STATE_FAILED))
     assert final.state == ExecutorStatus.STATE_DONE, final.last_error
-    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
+    truth = msg_codecs.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray,
                                                        timeout=30))
     scene = load_scene(config_path(SCENE))
     assert unfilled_slots(scene, [b.pose for b in truth.blocks], TOL_XY, TOL_YAW) == []

@@ -15,7 +15,7 @@ from rclpy.parameter import Parameter
 from trajectory_msgs.msg import JointTrajectory
 
 from msgs_py import drivers
-from msgs_py.ros_codecs import ns_to_stamp
+from msgs_py.ros import ns_to_stamp
 from nodes.arm.node import ArmNode
 from nodes.common.qos import LATCHED
 from nodes.common.standard_msgs import pose_stamped_msg

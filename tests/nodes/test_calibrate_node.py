@@ -14,7 +14,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import CameraInfo, Image
 
 from msgs_py import load_scene
-from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
+from msgs_py.ros.image import array_to_image, intrinsics_to_camera_info
 from nodes.calibration.cli import CalibrateNode
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA

@@ -15,9 +15,8 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from msgs_py import BlockPose
-from msgs_py.image_codecs import array_to_image, intrinsics_to_camera_info
-from msgs_py.interface_codecs import block_set_from_msg
-from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
+from msgs_py.ros import block_set_from_msg, ns_to_stamp, stamp_to_ns
+from msgs_py.ros.image import array_to_image, intrinsics_to_camera_info
 from nodes.common.qos import CAMERA as CAMERA_QOS
 from nodes.detector.node import DetectorNode
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks

@@ -23,8 +23,8 @@ from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Scene
-from msgs_py import interface_codecs as ic
-from msgs_py.ros_codecs import ns_to_stamp
+from msgs_py import ros as msg_codecs
+from msgs_py.ros import ns_to_stamp
 from msgs_py.scene import Workspace
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.executor.node import ExecutorNode, tool_pose_from_msg
@@ -91,7 +91,7 @@ class FakeCell(Node):
         info.header.stamp = ns_to_stamp(stamp)
         self.info_pub.publish(info)
         blocks = tuple(BlockPose(i, p.x, p.y, p.theta) for i, p in self.blocks.items())
-        self.det_pub.publish(ic.block_set_to_msg(BlockSet(blocks, stamp)))
+        self.det_pub.publish(msg_codecs.block_set_to_msg(BlockSet(blocks, stamp)))
 
 
 class FakePlanner(Node):
@@ -109,13 +109,13 @@ class FakePlanner(Node):
         self.create_service(Trigger, "/planner/replan", lambda req, res: res)
 
     def on_goal(self, msg):
-        layout = ic.goal_layout_from_msg(msg)
+        layout = msg_codecs.goal_layout_from_msg(msg)
         self.layouts.append(layout)
         scene = layout.with_blocks(tuple(BlockPose(i, p.x, p.y, p.theta)
                                          for i, p in self.cell.blocks.items()))
         actions = tuple(PickPlace(b, scene.block(b).pose, pose, 0)
                         for b, pose in sorted(scene.goal_assignment().items()))
-        self.plan_pub.publish(ic.plan_to_msg(Plan(actions, plan_id=uuid.uuid4().hex[:12],
+        self.plan_pub.publish(msg_codecs.plan_to_msg(Plan(actions, plan_id=uuid.uuid4().hex[:12],
                                                   scene=scene, params={"block_size": 0.0508})))
 
 
@@ -138,20 +138,20 @@ def plan():
 
 
 def status_is(state):
-    return lambda msg: ic.executor_status_from_msg(msg).state == state
+    return lambda msg: msg_codecs.executor_status_from_msg(msg).state == state
 
 
 def wait_status(ros, state, timeout=60):
     msg = ros.wait_for_message("/executor/status", ExecutorStatusMsg, status_is(state),
                                timeout=timeout, qos=LATCHED)
-    return ic.executor_status_from_msg(msg)
+    return msg_codecs.executor_status_from_msg(msg)
 
 
 def test_executor_runs_a_plan_to_a_verified_goal(ros):
     cell = ros.add(FakeCell(context=ros.context))
     ros.add(ExecutorNode(context=ros.context, parameter_overrides=FAST))
     pub = ros.publisher("/plan", PlanMsg, LATCHED)
-    pub.publish(ic.plan_to_msg(plan()))
+    pub.publish(msg_codecs.plan_to_msg(plan()))
     status = wait_status(ros, "done")
     assert status.action_index == status.action_total == 2
     assert status.metrics["actions_executed"] == 2
@@ -179,13 +179,13 @@ def test_malformed_messages_on_every_subscribed_topic_do_not_kill_the_executor(r
     ros.add(FakeCell(context=ros.context))
     node = ros.add(ExecutorNode(context=ros.context, parameter_overrides=FAST))
     logged = rosout(ros)
-    bad_plan = ic.plan_to_msg(plan())
+    bad_plan = msg_codecs.plan_to_msg(plan())
     bad_plan.actions[1].type = 7
     ros.publisher("/plan", PlanMsg, LATCHED).publish(bad_plan)
     detections = ros.publisher("/blocks/detected", BlockPoseArray, RELIABLE)
     ros.wait_for_subscribers(detections)
     detections.publish(BlockPoseArray(missing_ids=[-1]))
-    bad_status = ic.planner_status_to_msg(ic.PlannerStatus("failed"))
+    bad_status = msg_codecs.planner_status_to_msg(msg_codecs.PlannerStatus("failed"))
     bad_status.state = 42
     ros.publisher("/planner/status", PlannerStatusMsg, LATCHED).publish(bad_status)
     tcp = ros.publisher("/arm/tcp_pose", PoseStamped, RELIABLE)
@@ -215,7 +215,7 @@ def test_executor_refuses_a_plan_with_an_unseen_block(ros):
     ros.add(ExecutorNode(context=ros.context, parameter_overrides=FAST))
     bad = Plan((PickPlace(9, Pose2D(0.6, 0.0), Pose2D(0.7, 0.1), 0),), plan_id="bad",
                scene=plan().scene)
-    ros.publisher("/plan", PlanMsg, LATCHED).publish(ic.plan_to_msg(bad))
+    ros.publisher("/plan", PlanMsg, LATCHED).publish(msg_codecs.plan_to_msg(bad))
     assert "[9]" in wait_status(ros, "failed").last_error
 
 
@@ -233,7 +233,7 @@ def action_cell(ros):
 
 def test_a_rearrange_goal_runs_with_feedback_to_a_verified_result(ros):
     cell, planner, _node, goals = action_cell(ros)
-    handle = goals.send(ic.rearrange_goal_to_msg(layout()))
+    handle = goals.send(msg_codecs.rearrange_goal_to_msg(layout()))
     assert handle.accepted
     status, result = goals.result(handle, timeout=90)
     assert status == GoalStatus.STATUS_SUCCEEDED
@@ -251,10 +251,10 @@ def test_a_rearrange_goal_runs_with_feedback_to_a_verified_result(ros):
 
 def test_cancel_while_carrying_stops_safely_and_a_second_goal_meanwhile_is_rejected(ros):
     cell, _planner, _node, goals = action_cell(ros)
-    handle = goals.send(ic.rearrange_goal_to_msg(layout()))
+    handle = goals.send(msg_codecs.rearrange_goal_to_msg(layout()))
     assert handle.accepted
     goals.wait_feedback(lambda f: f.state == "running", timeout=60)
-    assert not goals.send(ic.rearrange_goal_to_msg(layout())).accepted  # not preempted
+    assert not goals.send(msg_codecs.rearrange_goal_to_msg(layout())).accepted  # not preempted
     deadline = time.monotonic() + 60
     while cell.held is None:
         assert time.monotonic() < deadline, "the arm never carried a block"
@@ -273,14 +273,14 @@ def test_cancel_while_carrying_stops_safely_and_a_second_goal_meanwhile_is_rejec
 def test_bad_goals_are_rejected_when_sent_with_the_reason_logged(ros):
     _cell, planner, _node, goals = action_cell(ros)
     logged = rosout(ros)
-    nan = ic.rearrange_goal_to_msg(layout())
+    nan = msg_codecs.rearrange_goal_to_msg(layout())
     nan.layout.goal.slots[0].pose.y = math.nan
-    overlap = ic.rearrange_goal_to_msg(layout())
+    overlap = msg_codecs.rearrange_goal_to_msg(layout())
     overlap.layout.goal.slots[1].pose.x = 0.72
-    duplicate = ic.rearrange_goal_to_msg(layout())
+    duplicate = msg_codecs.rearrange_goal_to_msg(layout())
     duplicate.layout.goal.slots[1].block_id = 1
-    unknown = ic.rearrange_goal_to_msg(layout({1: GOAL[1], 9: GOAL[2]}))
-    far = ic.rearrange_goal_to_msg(layout(workspace=Workspace(0.45, 1.30, -0.35, 0.35)))
+    unknown = msg_codecs.rearrange_goal_to_msg(layout({1: GOAL[1], 9: GOAL[2]}))
+    far = msg_codecs.rearrange_goal_to_msg(layout(workspace=Workspace(0.45, 1.30, -0.35, 0.35)))
     expected = {"layout.goal.slots[0].pose.y": nan, "overlaps": overlap,
                 "layout.goal.slots[1].block_id: duplicate": duplicate,
                 "layout.goal.slots[1].block_id: unknown block": unknown,

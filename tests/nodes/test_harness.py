@@ -10,7 +10,7 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from msgs_py import MessageError, load_scene
-from msgs_py.interface_codecs import goal_layout_from_msg
+from msgs_py.ros import goal_layout_from_msg
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.tools.goal import GoalPublisher

@@ -8,7 +8,7 @@ from densepack_interfaces.msg import Plan as PlanMsg
 from rclpy.parameter import Parameter
 
 from msgs_py import BlockSet, load_scene
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
@@ -23,11 +23,11 @@ def plan_for(ros, scene, overrides=()):
     ros.add(PlannerNode(context=ros.context, parameter_overrides=list(overrides)))
     goal_pub = ros.publisher("/goal_layout", GoalLayout, LATCHED)
     det_pub = ros.publisher("/blocks/detected", BlockPoseArray)
-    goal_pub.publish(ic.goal_layout_to_msg(goal_layout(scene)))
+    goal_pub.publish(msg_codecs.goal_layout_to_msg(goal_layout(scene)))
     ros.wait_for_subscribers(det_pub)
-    det_pub.publish(ic.block_set_to_msg(BlockSet(scene.blocks)))
+    det_pub.publish(msg_codecs.block_set_to_msg(BlockSet(scene.blocks)))
     msg = ros.wait_for_message("/plan", PlanMsg, timeout=60, qos=LATCHED)
-    plan = ic.plan_from_msg(msg)
+    plan = msg_codecs.plan_from_msg(msg)
     assert validate_plan(plan).ok
     return plan
 
@@ -38,7 +38,7 @@ def test_an_unlabeled_goal_is_planned_with_pebble_graphs(ros):
     status = ros.wait_for_message(
         "/planner/status", PlannerStatus, lambda m: m.state == PlannerStatus.STATE_PLANNED,
         timeout=10, qos=LATCHED)
-    assert ic.planner_status_from_msg(status).metrics["hypernodes"] >= 1
+    assert msg_codecs.planner_status_from_msg(status).metrics["hypernodes"] >= 1
 
 
 def test_the_baseline_is_a_parameter_away(ros):

@@ -14,7 +14,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py.tasks import PlanRequest
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
@@ -27,7 +27,7 @@ pytestmark = pytest.mark.ros
 
 def status_is(state, text=""):
     def check(msg):
-        status = ic.planner_status_from_msg(msg)
+        status = msg_codecs.planner_status_from_msg(msg)
         return status.state == state and text in status.last_error
     return check
 
@@ -36,9 +36,9 @@ def start(ros, scene, detection):
     ros.add(PlannerNode(context=ros.context))
     goal_pub = ros.publisher("/goal_layout", GoalLayout, LATCHED)
     det_pub = ros.publisher("/blocks/detected", BlockPoseArray)
-    goal_pub.publish(ic.goal_layout_to_msg(goal_layout(scene)))
+    goal_pub.publish(msg_codecs.goal_layout_to_msg(goal_layout(scene)))
     ros.wait_for_subscribers(det_pub)
-    det_pub.publish(ic.block_set_to_msg(detection))
+    det_pub.publish(msg_codecs.block_set_to_msg(detection))
     return det_pub
 
 
@@ -46,7 +46,7 @@ def test_plans_once_it_has_goal_and_detection_and_replans_on_request(ros):
     scene = random_scene(4, 0.1, seed=2)
     start(ros, scene, BlockSet(scene.blocks))
     msg = ros.wait_for_message("/plan", PlanMsg, timeout=30, qos=LATCHED)
-    plan = ic.plan_from_msg(msg)
+    plan = msg_codecs.plan_from_msg(msg)
     assert validate_plan(plan).ok and len(plan.actions) >= 4
     markers = ros.wait_for_message("/plan/markers", MarkerArray, timeout=10, qos=LATCHED)
     assert {m.ns for m in markers.markers} >= {"plan_start", "plan_goal", "plan_actions"}
@@ -76,10 +76,10 @@ def test_goal_naming_an_unseen_block_is_a_clear_failure(ros):
     ros.add(PlannerNode(context=ros.context))
     goal_pub = ros.publisher("/goal_layout", GoalLayout, LATCHED)
     det_pub = ros.publisher("/blocks/detected", BlockPoseArray)
-    goal_pub.publish(ic.goal_layout_to_msg(Scene(scene.workspace, scene.block_size, (),
+    goal_pub.publish(msg_codecs.goal_layout_to_msg(Scene(scene.workspace, scene.block_size, (),
                                                  Goal(slots=slots))))
     ros.wait_for_subscribers(det_pub)
-    det_pub.publish(ic.block_set_to_msg(BlockSet(scene.blocks)))
+    det_pub.publish(msg_codecs.block_set_to_msg(BlockSet(scene.blocks)))
     msg = ros.wait_for_message("/planner/status", PlannerStatus, status_is("failed", "42"),
                                timeout=20, qos=LATCHED)
     assert "never detected" in msg.last_error
@@ -104,9 +104,9 @@ def test_blocks_moving_while_it_plans_make_it_plan_again_from_where_they_stand(r
     ros.wait_for_message("/planner/status", PlannerStatus, status_is("planning"), timeout=30,
                          qos=LATCHED)
     moved = _moved_to_free_space(scene)
-    det_pub.publish(ic.block_set_to_msg(BlockSet(moved, stamp_ns=2)))
+    det_pub.publish(msg_codecs.block_set_to_msg(BlockSet(moved, stamp_ns=2)))
     msg = ros.wait_for_message("/plan", PlanMsg, timeout=120, qos=LATCHED)
-    plan = ic.plan_from_msg(msg)
+    plan = msg_codecs.plan_from_msg(msg)
     assert validate_plan(plan).ok
     assert plan.scene.blocks[0].pose == moved[0].pose
 
@@ -130,14 +130,14 @@ def _moved_to_free_space(scene):
 
 
 def plan_scene(ros, request: PlanScene.Request):
-    return ic.plan_reply_from_msg(ros.call_service("/plan_scene", PlanScene, request,
+    return msg_codecs.plan_reply_from_msg(ros.call_service("/plan_scene", PlanScene, request,
                                                    timeout=60))
 
 
 def test_plan_scene_answers_a_validated_plan_and_publishes_nothing(ros):
     scene = random_scene(4, 0.1, seed=2)
     ros.add(PlannerNode(context=ros.context))
-    reply = plan_scene(ros, ic.plan_request_to_msg(PlanRequest(scene, {"seed": 5})))
+    reply = plan_scene(ros, msg_codecs.plan_request_to_msg(PlanRequest(scene, {"seed": 5})))
     assert reply.success and reply.error == "none", reply.message
     assert reply.plan.scene == scene and reply.plan.seed == 5
     assert validate_plan(reply.plan).ok
@@ -148,7 +148,7 @@ def test_plan_scene_answers_a_validated_plan_and_publishes_nothing(ros):
 def test_plan_scene_refuses_a_bad_scene_naming_the_field_and_the_block(ros):
     scene = random_scene(4, 0.1, seed=2)
     ros.add(PlannerNode(context=ros.context))
-    overlap = ic.plan_request_to_msg(PlanRequest(scene))
+    overlap = msg_codecs.plan_request_to_msg(PlanRequest(scene))
     overlap.scene.blocks[2].pose.x = overlap.scene.blocks[1].pose.x
     overlap.scene.blocks[2].pose.y = overlap.scene.blocks[1].pose.y
     reply = plan_scene(ros, overlap)
@@ -156,12 +156,12 @@ def test_plan_scene_refuses_a_bad_scene_naming_the_field_and_the_block(ros):
     assert reply.failed_field == "scene.blocks[2]" and "overlaps" in reply.message
     assert reply.failed_block == scene.blocks[2].id
 
-    nan = ic.plan_request_to_msg(PlanRequest(scene))
+    nan = msg_codecs.plan_request_to_msg(PlanRequest(scene))
     nan.scene.goal.grid.center_x = math.nan
     reply = plan_scene(ros, nan)
     assert (reply.error, reply.failed_field) == ("invalid_scene", "scene.goal.grid.center_x")
 
-    no_goal = ic.plan_request_to_msg(PlanRequest(scene))
+    no_goal = msg_codecs.plan_request_to_msg(PlanRequest(scene))
     no_goal.scene.has_goal = False
     reply = plan_scene(ros, no_goal)
     assert (reply.error, reply.failed_field) == ("invalid_scene", "scene.has_goal")
@@ -170,7 +170,7 @@ def test_plan_scene_refuses_a_bad_scene_naming_the_field_and_the_block(ros):
 def test_plan_scene_refuses_a_bad_override_naming_it(ros):
     scene = random_scene(4, 0.1, seed=2)
     ros.add(PlannerNode(context=ros.context))
-    request = ic.plan_request_to_msg(PlanRequest(scene, {"seed": 1, "n_sampels": 80}))
+    request = msg_codecs.plan_request_to_msg(PlanRequest(scene, {"seed": 1, "n_sampels": 80}))
     reply = plan_scene(ros, request)
     assert (reply.error, reply.failed_field) == ("invalid_parameter", "overrides[1]")
     assert "n_sampels" in reply.message
@@ -187,16 +187,16 @@ def test_malformed_messages_on_every_topic_do_not_kill_the_planner(ros):
     goal_pub = ros.publisher("/goal_layout", GoalLayout, LATCHED)
     det_pub = ros.publisher("/blocks/detected", BlockPoseArray)
     ros.wait_for_subscribers(det_pub)
-    bad_goal = ic.goal_layout_to_msg(goal_layout(scene))
+    bad_goal = msg_codecs.goal_layout_to_msg(goal_layout(scene))
     bad_goal.goal.grid.gap = math.nan
     goal_pub.publish(bad_goal)
     ros.wait_for_message("/planner/status", PlannerStatus,
                          status_is("failed", "goal.grid.gap"), timeout=20, qos=LATCHED)
-    bad_detection = ic.block_set_to_msg(BlockSet(scene.blocks))
+    bad_detection = msg_codecs.block_set_to_msg(BlockSet(scene.blocks))
     bad_detection.blocks[0].id = bad_detection.blocks[1].id
     det_pub.publish(bad_detection)
     det_pub.publish(BlockPoseArray(missing_ids=[-4]))
-    goal_pub.publish(ic.goal_layout_to_msg(goal_layout(scene)))
-    det_pub.publish(ic.block_set_to_msg(BlockSet(scene.blocks)))
-    plan = ic.plan_from_msg(ros.wait_for_message("/plan", PlanMsg, timeout=30, qos=LATCHED))
+    goal_pub.publish(msg_codecs.goal_layout_to_msg(goal_layout(scene)))
+    det_pub.publish(msg_codecs.block_set_to_msg(BlockSet(scene.blocks)))
+    plan = msg_codecs.plan_from_msg(ros.wait_for_message("/plan", PlanMsg, timeout=30, qos=LATCHED))
     assert validate_plan(plan).ok

@@ -9,8 +9,7 @@ import pytest
 from densepack_interfaces.msg import BlockPoseArray
 from rclpy.parameter import Parameter
 
-from msgs_py.interface_codecs import block_set_from_msg
-from msgs_py.ros_codecs import stamp_to_ns
+from msgs_py.ros import block_set_from_msg, stamp_to_ns
 from nodes.calibration.cli import CalibrateNode
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle

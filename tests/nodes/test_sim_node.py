@@ -25,8 +25,8 @@ from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import ExecutorStatus, drivers
-from msgs_py import interface_codecs as ic
-from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
+from msgs_py import ros as msg_codecs
+from msgs_py.ros import ns_to_stamp, stamp_to_ns
 from msgs_py.sim import Disturbance as DisturbanceRecord
 from msgs_py.sim import SimEvents as SimEventsRecord
 from nodes.common.joints import values_by_name
@@ -117,7 +117,7 @@ def test_the_drivers_state_topics_flow_under_their_names(ros):
                                 timeout=10).mode == RobotMode.RUNNING
     assert ros.wait_for_message(drivers.PROGRAM_RUNNING_TOPIC, Bool, qos=LATCHED,
                                 timeout=10).data is True
-    truth = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray))
+    truth = msg_codecs.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray))
     assert sorted(truth.ids) == list(range(9))
     markers = ros.wait_for_message("/sim/ground_truth/markers", MarkerArray)
     assert sorted(m.id for m in markers.markers) == list(range(9))
@@ -194,19 +194,19 @@ def test_a_knuckle_command_moves_the_fingers_and_reset_restores_the_cell(ros):
     assert float(response.message.split("t = ")[1].split(" s")[0]) < 0.1, response.message
     ros.wait_for_message(drivers.JOINT_STATES, JointState, arm_at(HOME_JOINTS), timeout=10)
     events = ros.wait_for_message("/sim/events", SimEvents, qos=LATCHED, timeout=10)
-    assert ic.sim_events_from_msg(events) == SimEventsRecord(stamp_ns=stamp_to_ns(
+    assert msg_codecs.sim_events_from_msg(events) == SimEventsRecord(stamp_ns=stamp_to_ns(
         events.header.stamp))
 
 
 def test_executor_status_names_the_manipulated_block(ros):
     sim = make_sim(ros)
-    pub = send(ros, "/executor/status", ExecutorStatusMsg, ic.executor_status_to_msg(
+    pub = send(ros, "/executor/status", ExecutorStatusMsg, msg_codecs.executor_status_to_msg(
         ExecutorStatus("running", action_index=1, action_total=3, block=3)))
     deadline = time.monotonic() + 10
     while sim.world.monitor.manipulated != 3 and time.monotonic() < deadline:
         time.sleep(0.05)
     assert sim.world.monitor.manipulated == 3
-    pub.publish(ic.executor_status_to_msg(ExecutorStatus("observing")))
+    pub.publish(msg_codecs.executor_status_to_msg(ExecutorStatus("observing")))
     deadline = time.monotonic() + 10
     while sim.world.monitor.manipulated is not None and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -215,11 +215,11 @@ def test_executor_status_names_the_manipulated_block(ros):
 
 def test_disturb_pushes_a_block(ros):
     make_sim(ros)
-    send(ros, "/sim/disturb", Disturbance, ic.disturbance_to_msg(
+    send(ros, "/sim/disturb", Disturbance, msg_codecs.disturbance_to_msg(
         DisturbanceRecord(4, 0.02, 0.0)))
 
     def moved(msg: BlockPoseArray) -> bool:
-        block = ic.block_set_from_msg(msg).by_id()[4]
+        block = msg_codecs.block_set_from_msg(msg).by_id()[4]
         return abs(block.x - 0.75) < 0.004 and abs(block.y - 0.12) < 0.004
 
     ros.wait_for_message("/sim/ground_truth", BlockPoseArray, moved, timeout=30)
@@ -283,7 +283,7 @@ def test_the_speed_slider_is_reported_in_percent(ros):
 
 def test_a_protective_stop_holds_until_unlocked_and_the_program_played_again(ros):
     make_sim(ros, protective_stop_unlock_after_s=2.0, real_time_factor=1.0)
-    block = ic.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray))
+    block = msg_codecs.block_set_from_msg(ros.wait_for_message("/sim/ground_truth", BlockPoseArray))
     x, y = block.blocks[0].x, block.blocks[0].y
     send(ros, drivers.GRIPPER_COMMAND_TOPIC, Float64MultiArray,
          Float64MultiArray(data=[g85.KNUCKLE_CLOSED]))  # closed: the tips land on top

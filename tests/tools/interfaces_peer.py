@@ -26,7 +26,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
 from msgs_py import MessageError, PickPlace, Plan
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py.tasks import BlockError, PlanReply, RearrangeFeedback, RearrangeResult
 from nodes.common.qos import LATCHED, RELIABLE
 
@@ -37,7 +37,7 @@ STEP_S = 0.3
 
 def plan_scene(request: PlanScene.Request, _response: PlanScene.Response) -> PlanScene.Response:
     try:
-        req = ic.plan_request_from_msg(request)
+        req = msg_codecs.plan_request_from_msg(request)
     except MessageError as err:
         reply = PlanReply.refused("invalid_scene", err.reason, failed_field=err.field)
     else:
@@ -46,12 +46,12 @@ def plan_scene(request: PlanScene.Request, _response: PlanScene.Response) -> Pla
         plan = Plan((PickPlace(first.id, first.pose, target),), params=req.overrides,
                     plan_id="peer-plan", scene=req.scene)
         reply = PlanReply.planned(plan)
-    return ic.plan_reply_to_msg(reply)
+    return msg_codecs.plan_reply_to_msg(reply)
 
 
 def accept_goal(node: rclpy.node.Node, goal: Rearrange.Goal) -> GoalResponse:
     try:
-        ic.rearrange_goal_from_msg(goal)
+        msg_codecs.rearrange_goal_from_msg(goal)
     except MessageError as err:
         node.get_logger().warning(f"goal rejected: {err}")
         return GoalResponse.REJECT
@@ -59,18 +59,18 @@ def accept_goal(node: rclpy.node.Node, goal: Rearrange.Goal) -> GoalResponse:
 
 
 def rearrange(handle) -> Rearrange.Result:
-    layout = ic.rearrange_goal_from_msg(handle.request)
+    layout = msg_codecs.rearrange_goal_from_msg(handle.request)
     for k in range(1, STEPS + 1):
         if handle.is_cancel_requested:
             handle.canceled()
-            return ic.rearrange_result_to_msg(
+            return msg_codecs.rearrange_result_to_msg(
                 RearrangeResult("canceled", f"stopped safely before action {k}"))
-        handle.publish_feedback(ic.rearrange_feedback_to_msg(RearrangeFeedback(
+        handle.publish_feedback(msg_codecs.rearrange_feedback_to_msg(RearrangeFeedback(
             "running", k, STEPS, block=k - 1, corrections=k // 3, detail=f"action {k}")))
         time.sleep(STEP_S)
     handle.succeed()
     errors = tuple(BlockError(slot.id, 0.0004, 0.01) for slot in layout.goal.slots)
-    return ic.rearrange_result_to_msg(RearrangeResult(
+    return msg_codecs.rearrange_result_to_msg(RearrangeResult(
         "succeeded", "every block verified", errors, {"actions_executed": float(STEPS)}))
 
 
@@ -80,7 +80,8 @@ def main() -> None:
     group = ReentrantCallbackGroup()
     echo = node.create_publisher(PlanMsg, f"{PREFIX}/plan_echo", LATCHED)
     node.create_subscription(
-        PlanMsg, f"{PREFIX}/plan", lambda msg: echo.publish(ic.plan_to_msg(ic.plan_from_msg(msg))),
+        PlanMsg, f"{PREFIX}/plan", lambda msg: echo.publish(
+            msg_codecs.plan_to_msg(msg_codecs.plan_from_msg(msg))),
         RELIABLE)
     node.create_service(PlanScene, f"{PREFIX}/plan_scene", plan_scene, callback_group=group)
     server = ActionServer(node, Rearrange, f"{PREFIX}/rearrange", execute_callback=rearrange,

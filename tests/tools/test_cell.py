@@ -11,7 +11,7 @@ import time
 import pytest
 from densepack_interfaces.msg import GoalLayout
 
-from msgs_py.interface_codecs import goal_layout_from_msg
+from msgs_py.ros import goal_layout_from_msg
 from nodes.common.qos import LATCHED
 from tests.helpers import script
 

@@ -21,7 +21,7 @@ from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.srv import PlanScene
 
 from msgs_py import BlockPose, Goal, GoalSlot, PickPlace, Plan, Pose2D, Push, Scene, Workspace
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py.tasks import PlanRequest
 from nodes.common.qos import LATCHED, RELIABLE
 from tests.actions import Goals, wait_future
@@ -82,24 +82,24 @@ def test_a_plan_survives_a_topic_round_trip_through_the_other_process(ros, peer)
         seed=7, planning_time_s=0.36, cost=2.5 + math.pi, plan_id="roundtrip", scene=a_scene())
     pub = ros.publisher(f"{PREFIX}/plan", PlanMsg, RELIABLE)
     ros.wait_for_subscribers(pub, timeout=TIMEOUT)
-    pub.publish(ic.plan_to_msg(plan))
+    pub.publish(msg_codecs.plan_to_msg(plan))
     echo = ros.wait_for_message(f"{PREFIX}/plan_echo", PlanMsg,
                                 lambda m: m.plan_id == "roundtrip", timeout=TIMEOUT, qos=LATCHED)
-    assert ic.plan_from_msg(echo) == plan
+    assert msg_codecs.plan_from_msg(echo) == plan
 
 
 def test_plan_scene_answers_a_plan_or_a_refusal_naming_the_field(ros, peer):
     request = PlanRequest(a_scene(), {"budget_s": 5.0, "seed": 3})
     response = ros.call_service(f"{PREFIX}/plan_scene", PlanScene,
-                                ic.plan_request_to_msg(request), timeout=TIMEOUT)
-    reply = ic.plan_reply_from_msg(response)
+                                msg_codecs.plan_request_to_msg(request), timeout=TIMEOUT)
+    reply = msg_codecs.plan_reply_from_msg(response)
     assert reply.success and reply.error == "none"
     assert reply.plan.scene == request.scene and reply.plan.params == request.overrides
     assert reply.plan.actions[0].block == 3
 
-    bad = ic.plan_request_to_msg(request)
+    bad = msg_codecs.plan_request_to_msg(request)
     bad.scene.blocks[1].pose.x = 0.56  # overlaps block 3
-    refusal = ic.plan_reply_from_msg(
+    refusal = msg_codecs.plan_reply_from_msg(
         ros.call_service(f"{PREFIX}/plan_scene", PlanScene, bad, timeout=TIMEOUT))
     assert not refusal.success and refusal.error == "invalid_scene"
     assert refusal.failed_field == "scene.blocks[1]" and "overlaps" in refusal.message
@@ -107,11 +107,11 @@ def test_plan_scene_answers_a_plan_or_a_refusal_naming_the_field(ros, peer):
 
 def test_rearrange_runs_with_feedback_and_result(ros, peer):
     goals = Goals(ros, f"{PREFIX}/rearrange", TIMEOUT)
-    handle = goals.send(ic.rearrange_goal_to_msg(a_scene().with_blocks(())))
+    handle = goals.send(msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(())))
     assert handle.accepted
     answer = wait_future(handle.get_result_async(), "result")
     assert answer.status == GoalStatus.STATUS_SUCCEEDED
-    result = ic.rearrange_result_from_msg(answer.result)
+    result = msg_codecs.rearrange_result_from_msg(answer.result)
     assert result.outcome == "succeeded" and result.metrics == {"actions_executed": 5.0}
     assert [e.block_id for e in result.block_errors] == [3, 7]
     assert [(f.action_index, f.action_total) for f in goals.feedback] == [(k, 5)
@@ -122,7 +122,7 @@ def test_rearrange_runs_with_feedback_and_result(ros, peer):
 
 def test_rearrange_is_canceled_after_its_first_feedback(ros, peer):
     goals = Goals(ros, f"{PREFIX}/rearrange", TIMEOUT)
-    handle = goals.send(ic.rearrange_goal_to_msg(a_scene().with_blocks(())))
+    handle = goals.send(msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(())))
     assert handle.accepted
     deadline = time.monotonic() + TIMEOUT
     while not goals.feedback:
@@ -132,12 +132,12 @@ def test_rearrange_is_canceled_after_its_first_feedback(ros, peer):
     assert len(cancel.goals_canceling) == 1
     answer = wait_future(handle.get_result_async(), "result")
     assert answer.status == GoalStatus.STATUS_CANCELED
-    result = ic.rearrange_result_from_msg(answer.result)
+    result = msg_codecs.rearrange_result_from_msg(answer.result)
     assert result.outcome == "canceled" and "stopped safely" in result.detail
     assert len(goals.feedback) < 5
 
 
 def test_a_malformed_rearrange_goal_is_rejected_when_sent(ros, peer):
-    goal = ic.rearrange_goal_to_msg(a_scene().with_blocks(()))
+    goal = msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(()))
     goal.layout.goal.slots[1].pose.x = math.nan
     assert not Goals(ros, f"{PREFIX}/rearrange", TIMEOUT).send(goal).accepted

@@ -25,7 +25,7 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 
-from msgs_py.ros_codecs import ns_to_stamp, stamp_to_ns
+from msgs_py.ros import ns_to_stamp, stamp_to_ns
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.sim.node import SimNode
 from nodes.tools import bags

@@ -63,7 +63,7 @@ def test_the_documented_rearrange_goal_is_the_default_scenes_goal():
     from densepack_interfaces.action import Rearrange
 
     from msgs_py import BlockSet, load_scene
-    from msgs_py.interface_codecs import rearrange_goal_from_msg
+    from msgs_py.ros import rearrange_goal_from_msg
     from nodes.common.paths import config_path
     from nodes.executor.config import ExecutorConfig
     from nodes.executor.goals import check_layout

@@ -1,5 +1,5 @@
 """Plans and actions: JSON round trips and refusals; statuses refuse unknown states (their
-message codecs are tested in test_interface_codecs)."""
+message codecs are tested in ros/test_codecs)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,10 @@
 """Codecs between ``sensor_msgs/Image`` / ``CompressedImage`` / ``CameraInfo`` and numpy /
 ``CameraIntrinsics``.
 
-Like ``ros_codecs``, this module touches ROS message classes (not rclpy) and is used at a
-node's edge only. Decoding validates everything a detector relies on (encoding, sizes,
-step, buffer length, a usable camera matrix) and raises ``MessageError`` naming the field.
+Like the rest of ``msgs_py.ros``, this module touches ROS message classes (not rclpy) and is
+used at a node's edge only; ``msgs_py.ros`` itself does not import it (it needs OpenCV).
+Decoding validates everything a detector relies on (encoding, sizes, step, buffer length, a
+usable camera matrix) and raises ``MessageError`` naming the field.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from msgs_py.camera import DISTORTION_MODEL, NO_DISTORTION, CameraIntrinsics
 from msgs_py.errors import MessageError
-from msgs_py.ros_codecs import ns_to_stamp
+from msgs_py.ros.stamps import ns_to_stamp
 
 #: 8-bit encodings we read, with their channel counts.
 CHANNELS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}

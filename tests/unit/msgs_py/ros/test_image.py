@@ -7,13 +7,13 @@ import pytest
 
 from msgs_py import MessageError
 from msgs_py.camera import CameraIntrinsics
-from msgs_py.image_codecs import (
+from msgs_py.ros import stamp_to_ns
+from msgs_py.ros.image import (
     array_to_image,
     camera_info_to_intrinsics,
     image_to_array,
     intrinsics_to_camera_info,
 )
-from msgs_py.ros_codecs import stamp_to_ns
 
 
 def test_image_round_trip_keeps_pixels_and_stamp():

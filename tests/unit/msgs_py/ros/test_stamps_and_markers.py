@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from visualization_msgs.msg import Marker
 
 from msgs_py import BlockPose, BlockSet, MessageError
-from msgs_py.ros_codecs import block_set_to_markers, ns_to_stamp, stamp_to_ns
+from msgs_py.ros import block_set_to_markers, ns_to_stamp, stamp_to_ns
 
 
 @given(st.integers(-(2**31) * 10**9, (2**31 - 1) * 10**9 + 999_999_999))

@@ -51,7 +51,7 @@ from msgs_py import (
     Scene,
     Workspace,
 )
-from msgs_py import interface_codecs as ic
+from msgs_py import ros as msg_codecs
 from msgs_py.sim import ROBOT_PARTS, SIM_EVENT_TYPES, Disturbance, SimEvent, SimEvents
 from msgs_py.status import GRIPPER_OBJECT_STATES, GripperStatus
 from msgs_py.tasks import (
@@ -180,17 +180,17 @@ optional_blocks = st.one_of(st.none(), ids)
 # --- round trips ------------------------------------------------------------------------------
 @given(poses(), ids)
 def test_poses_and_block_poses_round_trip_bit_exact(pose, block_id):
-    roundtrip(pose, ic.pose_to_msg, ic.pose_from_msg)
-    roundtrip(BlockPose(block_id, pose.x, pose.y, pose.theta), ic.block_pose_to_msg,
-              ic.block_pose_from_msg)
+    roundtrip(pose, msg_codecs.pose_to_msg, msg_codecs.pose_from_msg)
+    roundtrip(BlockPose(block_id, pose.x, pose.y, pose.theta), msg_codecs.block_pose_to_msg,
+              msg_codecs.block_pose_from_msg)
 
 
 @given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1), st.booleans())
 def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns, squared):
     from msgs_py.placement import Placement
 
-    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns, squared), ic.placement_to_msg,
-              ic.placement_from_msg)
+    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns, squared),
+              msg_codecs.placement_to_msg, msg_codecs.placement_from_msg)
 
 
 @given(st.sampled_from(["drop", "slip", "miss", "remove_block", "add_block", "camera_noise"]),
@@ -200,9 +200,9 @@ def test_sim_faults_round_trip_and_refuse_what_they_lack(kind, block_id, pose, v
 
     fault = SimFault(kind, block_id if kind in ("remove_block", "add_block") else None,
                      (pose.x, pose.y, pose.theta) if kind == "add_block" else None, value)
-    roundtrip(fault, ic.sim_fault_to_msg, ic.sim_fault_from_msg)
+    roundtrip(fault, msg_codecs.sim_fault_to_msg, msg_codecs.sim_fault_from_msg)
     with pytest.raises(MessageError, match="kind"):
-        ic.sim_fault_from_msg(SimFaultMsg())
+        msg_codecs.sim_fault_from_msg(SimFaultMsg())
 
 
 @st.composite
@@ -219,26 +219,26 @@ def block_sets(draw):
 
 @given(block_sets())
 def test_block_sets_round_trip(block_set):
-    msg = roundtrip(block_set, ic.block_set_to_msg, ic.block_set_from_msg)
+    msg = roundtrip(block_set, msg_codecs.block_set_to_msg, msg_codecs.block_set_from_msg)
     assert msg.header.frame_id == block_set.frame_id
     assert len(msg.reprojection_error_px) in (0, len(block_set.blocks))
 
 
 @given(scenes())
 def test_scenes_round_trip(scene):
-    msg = roundtrip(scene, ic.scene_to_msg, ic.scene_from_msg)
+    msg = roundtrip(scene, msg_codecs.scene_to_msg, msg_codecs.scene_from_msg)
     assert msg.header.frame_id == "world" and msg.has_goal == (scene.goal is not None)
 
 
 @given(scenes(with_goal=True))
 def test_goal_layouts_and_rearrange_goals_round_trip(scene):
     layout = scene.with_blocks(())
-    roundtrip(layout, ic.goal_layout_to_msg, ic.goal_layout_from_msg)
-    roundtrip(layout, ic.rearrange_goal_to_msg, ic.rearrange_goal_from_msg)
-    roundtrip(scene.workspace, ic.workspace_to_msg, ic.workspace_from_msg)
-    roundtrip(scene.goal, ic.goal_to_msg, ic.goal_from_msg)
+    roundtrip(layout, msg_codecs.goal_layout_to_msg, msg_codecs.goal_layout_from_msg)
+    roundtrip(layout, msg_codecs.rearrange_goal_to_msg, msg_codecs.rearrange_goal_from_msg)
+    roundtrip(scene.workspace, msg_codecs.workspace_to_msg, msg_codecs.workspace_from_msg)
+    roundtrip(scene.goal, msg_codecs.goal_to_msg, msg_codecs.goal_from_msg)
     if scene.goal.grid is not None:
-        roundtrip(scene.goal.grid, ic.grid_to_msg, ic.grid_from_msg)
+        roundtrip(scene.goal.grid, msg_codecs.grid_to_msg, msg_codecs.grid_from_msg)
 
 
 def test_the_goal_kinds_of_the_design_survive():
@@ -249,36 +249,38 @@ def test_the_goal_kinds_of_the_design_survive():
     grid = Goal(grid=GridSpec(2, 2, (0.7, 0.1), 0.2, 0.003))
     for goal in (labeled, unlabeled, retrieval, grid):
         scene = Scene(WS, S, blocks, goal)
-        roundtrip(scene, ic.scene_to_msg, ic.scene_from_msg)
-        roundtrip(scene.with_blocks(()), ic.goal_layout_to_msg, ic.goal_layout_from_msg)
-    msg = ic.goal_to_msg(unlabeled)
+        roundtrip(scene, msg_codecs.scene_to_msg, msg_codecs.scene_from_msg)
+        roundtrip(scene.with_blocks(()), msg_codecs.goal_layout_to_msg,
+                  msg_codecs.goal_layout_from_msg)
+    msg = msg_codecs.goal_to_msg(unlabeled)
     assert not msg.labeled and {s.block_id for s in msg.slots} == {-1}
-    assert ic.goal_to_msg(grid).form == GoalSpec.FORM_GRID and not ic.goal_to_msg(grid).slots
+    grid_msg = msg_codecs.goal_to_msg(grid)
+    assert grid_msg.form == GoalSpec.FORM_GRID and not grid_msg.slots
 
 
 @given(actions())
 def test_actions_round_trip(action):
-    msg = roundtrip(action, ic.action_to_msg, ic.action_from_msg)
+    msg = roundtrip(action, msg_codecs.action_to_msg, msg_codecs.action_from_msg)
     assert msg.type == (PlanAction.PUSH if isinstance(action, Push) else PlanAction.PICK_PLACE)
 
 
 @given(plans())
 def test_plans_round_trip_with_typed_params(plan):
-    msg = roundtrip(plan, ic.plan_to_msg, ic.plan_from_msg)
+    msg = roundtrip(plan, msg_codecs.plan_to_msg, msg_codecs.plan_from_msg)
     assert [p.name for p in msg.params] == list(plan.params)
 
 
 def test_plan_params_keep_their_ros_types():
     plan = Plan((), params={"n_samples": 80, "eps": 0.3, "shortcut": True, "method": "pirs",
                             "unlabeled.push_lengths": [0.5, 1.0], "none": None})
-    types = {p.name: p.value.type for p in ic.plan_to_msg(plan).params}
+    types = {p.name: p.value.type for p in msg_codecs.plan_to_msg(plan).params}
     assert types == {"n_samples": ParameterType.PARAMETER_INTEGER,
                      "eps": ParameterType.PARAMETER_DOUBLE,
                      "shortcut": ParameterType.PARAMETER_BOOL,
                      "method": ParameterType.PARAMETER_STRING,
                      "unlabeled.push_lengths": ParameterType.PARAMETER_DOUBLE_ARRAY,
                      "none": ParameterType.PARAMETER_NOT_SET}
-    back = ic.plan_from_msg(ic.plan_to_msg(plan)).params
+    back = msg_codecs.plan_from_msg(msg_codecs.plan_to_msg(plan)).params
     assert type(back["n_samples"]) is int and type(back["eps"]) is float
 
 
@@ -290,45 +292,48 @@ def test_a_real_planner_plan_round_trips():
     scene = Scene(WS, S, (BlockPose(0, 0.6, 0.0, 0.3),), Goal(slots=(GoalSlot(0.8, 0.1, 0.0, 0),)))
     plan = Plan((PickPlace(0, Pose2D(0.6, 0.0, 0.3), Pose2D(0.8, 0.1, 0.0), 1),),
                 "pirs", params, 4, 0.36, 1.2, "cef50f893db6", scene)
-    roundtrip(plan, ic.plan_to_msg, ic.plan_from_msg)
+    roundtrip(plan, msg_codecs.plan_to_msg, msg_codecs.plan_from_msg)
 
 
 @given(st.sampled_from(EXECUTOR_STATES), texts, counts, counts, optional_blocks, texts, texts,
        metrics)
 def test_executor_status_round_trips(state, plan_id, k, n, block, error, detail, figures):
     status = ExecutorStatus(state, plan_id, k, n, block, error, detail, figures)
-    roundtrip(status, ic.executor_status_to_msg, ic.executor_status_from_msg)
+    roundtrip(status, msg_codecs.executor_status_to_msg, msg_codecs.executor_status_from_msg)
 
 
 @given(st.sampled_from(PLANNER_STATES), texts, counts, st.floats(0, 1e4), texts,
        optional_blocks, metrics)
 def test_planner_status_round_trips(state, plan_id, n, seconds, error, block, figures):
     status = PlannerStatus(state, plan_id, n, seconds, error, block, figures)
-    roundtrip(status, ic.planner_status_to_msg, ic.planner_status_from_msg)
+    roundtrip(status, msg_codecs.planner_status_to_msg, msg_codecs.planner_status_from_msg)
 
 
 def test_status_stamps_are_written():
-    msg = ic.executor_status_to_msg(ExecutorStatus("idle"), stamp_ns=3_000_000_007)
+    msg = msg_codecs.executor_status_to_msg(ExecutorStatus("idle"), stamp_ns=3_000_000_007)
     assert (msg.stamp.sec, msg.stamp.nanosec) == (3, 7)
 
 
 @given(scenes(with_goal=True), params)
 def test_plan_requests_round_trip(scene, overrides):
-    roundtrip(PlanRequest(scene, overrides), ic.plan_request_to_msg, ic.plan_request_from_msg)
+    roundtrip(PlanRequest(scene, overrides),
+              msg_codecs.plan_request_to_msg, msg_codecs.plan_request_from_msg)
 
 
 @given(plans(), st.sampled_from(PLAN_ERRORS[1:]), optional_blocks, texts, texts)
 def test_plan_replies_round_trip(plan, error, block, field, message):
-    roundtrip(PlanReply.planned(plan, message), ic.plan_reply_to_msg, ic.plan_reply_from_msg)
+    roundtrip(PlanReply.planned(plan, message),
+              msg_codecs.plan_reply_to_msg, msg_codecs.plan_reply_from_msg)
     refusal = PlanReply.refused(error, message, block, field)
-    msg = roundtrip(refusal, ic.plan_reply_to_msg, ic.plan_reply_from_msg)
-    assert not msg.success and msg.plan == ic.plan_to_msg(Plan(())).__class__()
+    msg = roundtrip(refusal, msg_codecs.plan_reply_to_msg, msg_codecs.plan_reply_from_msg)
+    assert not msg.success and msg.plan == msg_codecs.plan_to_msg(Plan(())).__class__()
 
 
 @given(st.sampled_from(EXECUTOR_STATES), counts, counts, optional_blocks, counts, texts)
 def test_rearrange_feedback_round_trips(state, k, n, block, corrections, detail):
     feedback = RearrangeFeedback(state, k, n, block, corrections, detail)
-    roundtrip(feedback, ic.rearrange_feedback_to_msg, ic.rearrange_feedback_from_msg)
+    roundtrip(feedback,
+              msg_codecs.rearrange_feedback_to_msg, msg_codecs.rearrange_feedback_from_msg)
 
 
 @st.composite
@@ -343,7 +348,7 @@ def block_errors(draw):
        st.lists(block_errors(), max_size=6, unique_by=lambda e: e.block_id), metrics)
 def test_rearrange_results_round_trip(outcome, detail, errors, figures):
     result = RearrangeResult(outcome, detail, tuple(errors), figures)
-    roundtrip(result, ic.rearrange_result_to_msg, ic.rearrange_result_from_msg)
+    roundtrip(result, msg_codecs.rearrange_result_to_msg, msg_codecs.rearrange_result_from_msg)
 
 
 stamps = st.integers(0, (2**31 - 1) * 10**9)
@@ -365,36 +370,37 @@ def sim_events(draw):
 @given(st.lists(sim_events(), max_size=6), counts, counts, stamps)
 def test_sim_events_round_trip_and_keep_the_monitors_form(events, contacts, lost, stamp):
     record = SimEvents(contacts, lost, tuple(events), stamp)
-    roundtrip(record, ic.sim_events_to_msg, ic.sim_events_from_msg)
+    roundtrip(record, msg_codecs.sim_events_to_msg, msg_codecs.sim_events_from_msg)
     assert SimEvents.from_summary(record.to_dict(), stamp) == record
 
 
 @given(st.floats(0, 0.085), st.floats(0, 0.085), st.sampled_from(GRIPPER_OBJECT_STATES), stamps)
 def test_gripper_status_round_trips(gap, requested, state, stamp):
-    roundtrip(GripperStatus(gap, requested, state, stamp), ic.gripper_status_to_msg,
-              ic.gripper_status_from_msg)
+    roundtrip(GripperStatus(gap, requested, state, stamp), msg_codecs.gripper_status_to_msg,
+              msg_codecs.gripper_status_from_msg)
 
 
 @given(ids, st.floats(-0.1, 0.1), st.floats(-0.1, 0.1))
 def test_disturbances_round_trip(block, dx, dy):
-    roundtrip(Disturbance(block, dx, dy), ic.disturbance_to_msg, ic.disturbance_from_msg)
+    roundtrip(Disturbance(block, dx, dy),
+              msg_codecs.disturbance_to_msg, msg_codecs.disturbance_from_msg)
 
 
 def test_malformed_sim_messages_are_refused_by_field():
-    msg = ic.sim_events_to_msg(SimEvents(1, 0, (SimEvent("unintended_contact", 2.0, 3,
+    msg = msg_codecs.sim_events_to_msg(SimEvents(1, 0, (SimEvent("unintended_contact", 2.0, 3,
                                                          robot="finger"),)))
     msg.events[0].type = 9
-    refused(ic.sim_events_from_msg, msg, "events[0].type")
+    refused(msg_codecs.sim_events_from_msg, msg, "events[0].type")
     msg.events[0].type = SimEventMsg.TYPE_BLOCK_LOST  # a lost block has a reason, no robot
-    refused(ic.sim_events_from_msg, msg, "events[0].robot")
-    status = ic.gripper_status_to_msg(GripperStatus(0.05, 0.0, "stopped_closing"))
+    refused(msg_codecs.sim_events_from_msg, msg, "events[0].robot")
+    status = msg_codecs.gripper_status_to_msg(GripperStatus(0.05, 0.0, "stopped_closing"))
     status.object = 7
-    refused(ic.gripper_status_from_msg, status, "object")
+    refused(msg_codecs.gripper_status_from_msg, status, "object")
     status.object, status.gap = GripperStatusMsg.OBJECT_MOVING, math.nan
-    refused(ic.gripper_status_from_msg, status, "gap")
-    nudge = ic.disturbance_to_msg(Disturbance(1, 0.01, 0.0))
+    refused(msg_codecs.gripper_status_from_msg, status, "gap")
+    nudge = msg_codecs.disturbance_to_msg(Disturbance(1, 0.01, 0.0))
     nudge.block = -2
-    refused(ic.disturbance_from_msg, nudge, "block")
+    refused(msg_codecs.disturbance_from_msg, nudge, "block")
     with pytest.raises(MessageError, match=re.escape("events[0]")):
         SimEvents.from_summary({"unintended_contacts": 0, "blocks_lost": 0,
                                 "events": [{"t": 1.0, "type": "teleport", "block": 1}]})
@@ -412,9 +418,9 @@ def test_dispatch_covers_every_record():
                SimEvent("block_lost", 3.5, 4, reason="tipped over"),
                SimEvents(0, 1, (SimEvent("block_lost", 3.5, 4, reason="tipped over"),), 9)]
     for record in records:
-        assert ic.from_msg(wire(ic.to_msg(record))) == record
+        assert msg_codecs.from_msg(wire(msg_codecs.to_msg(record))) == record
     with pytest.raises(TypeError):
-        ic.to_msg(object())
+        msg_codecs.to_msg(object())
 
 
 def test_every_vocabulary_word_has_a_constant_and_back():
@@ -446,212 +452,214 @@ def a_scene():
 
 
 def test_nan_anywhere_is_refused_by_field():
-    msg = ic.scene_to_msg(a_scene())
+    msg = msg_codecs.scene_to_msg(a_scene())
     msg.blocks[1].pose.theta = math.nan
-    refused(ic.scene_from_msg, msg, "blocks[1].pose.theta")
-    msg = ic.plan_request_to_msg(PlanRequest(a_scene()))
+    refused(msg_codecs.scene_from_msg, msg, "blocks[1].pose.theta")
+    msg = msg_codecs.plan_request_to_msg(PlanRequest(a_scene()))
     msg.scene.goal.slots[0].pose.y = math.inf
-    refused(ic.plan_request_from_msg, msg, "scene.goal.slots[0].pose.y")
-    msg = ic.executor_status_to_msg(ExecutorStatus("running", metrics={"t": 1.0}))
+    refused(msg_codecs.plan_request_from_msg, msg, "scene.goal.slots[0].pose.y")
+    msg = msg_codecs.executor_status_to_msg(ExecutorStatus("running", metrics={"t": 1.0}))
     msg.metrics[0].value = math.nan
-    refused(ic.executor_status_from_msg, msg, "metrics[0].value")
-    msg = ic.plan_to_msg(Plan((), params={"eps": 0.3}))
+    refused(msg_codecs.executor_status_from_msg, msg, "metrics[0].value")
+    msg = msg_codecs.plan_to_msg(Plan((), params={"eps": 0.3}))
     msg.params[0].value.double_value = math.nan
-    refused(ic.plan_from_msg, msg, "params[0].value.double_value")
+    refused(msg_codecs.plan_from_msg, msg, "params[0].value.double_value")
     with pytest.raises(MessageError, match=re.escape("blocks[0].pose.x")):
-        ic.block_set_to_msg(BlockSet((BlockPose(0, math.nan, 0.0),)))
+        msg_codecs.block_set_to_msg(BlockSet((BlockPose(0, math.nan, 0.0),)))
 
 
 def test_unknown_states_outcomes_and_codes_are_refused():
-    msg = ic.executor_status_to_msg(ExecutorStatus("done"))
+    msg = msg_codecs.executor_status_to_msg(ExecutorStatus("done"))
     msg.state = 0
-    refused(ic.executor_status_from_msg, msg, "state")
+    refused(msg_codecs.executor_status_from_msg, msg, "state")
     msg.state = 42
-    refused(ic.executor_status_from_msg, msg, "state")
-    msg = ic.planner_status_to_msg(PlannerStatus("planned"))
+    refused(msg_codecs.executor_status_from_msg, msg, "state")
+    msg = msg_codecs.planner_status_to_msg(PlannerStatus("planned"))
     msg.state = PlannerStatusMsg.STATE_UNKNOWN
-    refused(ic.planner_status_from_msg, msg, "state")
-    result = ic.rearrange_result_to_msg(RearrangeResult("succeeded"))
+    refused(msg_codecs.planner_status_from_msg, msg, "state")
+    result = msg_codecs.rearrange_result_to_msg(RearrangeResult("succeeded"))
     result.outcome = Rearrange.Result.OUTCOME_UNKNOWN
-    refused(ic.rearrange_result_from_msg, result, "outcome")
+    refused(msg_codecs.rearrange_result_from_msg, result, "outcome")
     feedback = Rearrange.Feedback(state=77)
-    refused(ic.rearrange_feedback_from_msg, feedback, "state")
-    reply = ic.plan_reply_to_msg(PlanReply.refused("no_plan", "walled in", 3))
+    refused(msg_codecs.rearrange_feedback_from_msg, feedback, "state")
+    reply = msg_codecs.plan_reply_to_msg(PlanReply.refused("no_plan", "walled in", 3))
     reply.error_code = 99
-    refused(ic.plan_reply_from_msg, reply, "error_code")
+    refused(msg_codecs.plan_reply_from_msg, reply, "error_code")
 
 
 def test_bad_action_types_and_mixed_fields_are_refused():
     plan = Plan((PickPlace(0, Pose2D(0.6, 0), Pose2D(0.7, 0)),
                  Push.between(1, Pose2D(0.6, 0.1), Pose2D(0.65, 0.1))))
-    msg = ic.plan_to_msg(plan)
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[1].type = 0
-    refused(ic.plan_from_msg, msg, "actions[1].type")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[1].type")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[0].grasp = 2
-    refused(ic.plan_from_msg, msg, "actions[0].grasp")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[0].grasp")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[0].distance = 0.1
-    refused(ic.plan_from_msg, msg, "actions[0].distance")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[0].distance")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[1].grasp = 1
-    refused(ic.plan_from_msg, msg, "actions[1].grasp")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[1].grasp")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[1].to_pose.x += 0.01  # no longer from + direction * distance
-    refused(ic.plan_from_msg, msg, "actions[1].to_pose")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[1].to_pose")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[1].to_pose.theta += 0.1
-    refused(ic.plan_from_msg, msg, "actions[1].to_pose.theta")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[1].to_pose.theta")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[1].direction_x, msg.actions[1].direction_y = 0.5, 0.5
-    refused(ic.plan_from_msg, msg, "actions[1].direction_x")
-    msg = ic.plan_to_msg(plan)
+    refused(msg_codecs.plan_from_msg, msg, "actions[1].direction_x")
+    msg = msg_codecs.plan_to_msg(plan)
     msg.actions[0].block = -1
-    refused(ic.plan_from_msg, msg, "actions[0].block")
+    refused(msg_codecs.plan_from_msg, msg, "actions[0].block")
 
 
 def test_duplicate_and_unknown_ids_are_refused():
-    msg = ic.scene_to_msg(a_scene())
+    msg = msg_codecs.scene_to_msg(a_scene())
     msg.blocks[1].id = 0
-    refused(ic.scene_from_msg, msg, "blocks[1].id")
-    msg = ic.scene_to_msg(a_scene())
+    refused(msg_codecs.scene_from_msg, msg, "blocks[1].id")
+    msg = msg_codecs.scene_to_msg(a_scene())
     msg.goal.slots[1].block_id = 0
-    err = refused(ic.scene_from_msg, msg, "goal.slots[1].block_id")
+    err = refused(msg_codecs.scene_from_msg, msg, "goal.slots[1].block_id")
     assert "goal.slots[0]" in err.reason
-    msg = ic.scene_to_msg(a_scene())
+    msg = msg_codecs.scene_to_msg(a_scene())
     msg.goal.slots[1].block_id = 9
-    refused(ic.scene_from_msg, msg, "goal.slots[1].block_id")
-    msg = ic.block_set_to_msg(BlockSet((BlockPose(4, 0, 0), BlockPose(5, 0.1, 0)), missing=(6,)))
+    refused(msg_codecs.scene_from_msg, msg, "goal.slots[1].block_id")
+    msg = msg_codecs.block_set_to_msg(
+        BlockSet((BlockPose(4, 0, 0), BlockPose(5, 0.1, 0)), missing=(6,)))
     msg.blocks[1].id = 4
-    refused(ic.block_set_from_msg, msg, "blocks[1].id")
-    msg = ic.block_set_to_msg(BlockSet((BlockPose(4, 0, 0),), missing=(6,)))
+    refused(msg_codecs.block_set_from_msg, msg, "blocks[1].id")
+    msg = msg_codecs.block_set_to_msg(BlockSet((BlockPose(4, 0, 0),), missing=(6,)))
     msg.missing_ids = [6, 4]
-    refused(ic.block_set_from_msg, msg, "missing_ids[1]")
+    refused(msg_codecs.block_set_from_msg, msg, "missing_ids[1]")
     msg.missing_ids = [6, 6]
-    refused(ic.block_set_from_msg, msg, "missing_ids[1]")
-    result = ic.rearrange_result_to_msg(
+    refused(msg_codecs.block_set_from_msg, msg, "missing_ids[1]")
+    result = msg_codecs.rearrange_result_to_msg(
         RearrangeResult("succeeded", block_errors=(BlockError(1, 0, 0), BlockError(2, 0, 0))))
     result.block_errors[1].block_id = 1
-    refused(ic.rearrange_result_from_msg, result, "block_errors[1].block_id")
-    status = ic.executor_status_to_msg(ExecutorStatus("running", metrics={"a": 1.0, "b": 2.0}))
+    refused(msg_codecs.rearrange_result_from_msg, result, "block_errors[1].block_id")
+    status = msg_codecs.executor_status_to_msg(
+        ExecutorStatus("running", metrics={"a": 1.0, "b": 2.0}))
     status.metrics = [Metric(name="a", value=1.0), Metric(name="a", value=2.0)]
-    refused(ic.executor_status_from_msg, status, "metrics[1].name")
-    plan = ic.plan_to_msg(Plan((), params={"eps": 0.3, "seed": 1}))
+    refused(msg_codecs.executor_status_from_msg, status, "metrics[1].name")
+    plan = msg_codecs.plan_to_msg(Plan((), params={"eps": 0.3, "seed": 1}))
     plan.params[1].name = "eps"
-    refused(ic.plan_from_msg, plan, "params[1].name")
+    refused(msg_codecs.plan_from_msg, plan, "params[1].name")
 
 
 def test_scene_rules_name_the_message_field():
-    msg = ic.scene_to_msg(a_scene())
+    msg = msg_codecs.scene_to_msg(a_scene())
     msg.blocks[1].pose.x = 0.56  # overlaps block 0
-    refused(ic.scene_from_msg, msg, "blocks[1]")
-    msg = ic.goal_layout_to_msg(a_scene().with_blocks(()))
+    refused(msg_codecs.scene_from_msg, msg, "blocks[1]")
+    msg = msg_codecs.goal_layout_to_msg(a_scene().with_blocks(()))
     msg.goal.slots[1].pose.y = 0.12  # overlaps slot 0
-    refused(ic.goal_layout_from_msg, msg, "goal.slots[1]")
-    msg = ic.rearrange_goal_to_msg(a_scene().with_blocks(()))
+    refused(msg_codecs.goal_layout_from_msg, msg, "goal.slots[1]")
+    msg = msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(()))
     msg.layout.goal.slots[0].pose.x = 2.0  # off the workspace
-    refused(ic.rearrange_goal_from_msg, msg, "layout.goal.slots[0]")
-    msg = ic.rearrange_goal_to_msg(a_scene().with_blocks(()))
+    refused(msg_codecs.rearrange_goal_from_msg, msg, "layout.goal.slots[0]")
+    msg = msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(()))
     msg.layout.workspace.y_max = -0.5
-    refused(ic.rearrange_goal_from_msg, msg, "layout.workspace.y_max")
-    msg = ic.rearrange_goal_to_msg(a_scene().with_blocks(()))
+    refused(msg_codecs.rearrange_goal_from_msg, msg, "layout.workspace.y_max")
+    msg = msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(()))
     msg.layout.block_size = 0.0
-    refused(ic.rearrange_goal_from_msg, msg, "layout.block_size")
-    msg = ic.rearrange_goal_to_msg(a_scene().with_blocks(()))
+    refused(msg_codecs.rearrange_goal_from_msg, msg, "layout.block_size")
+    msg = msg_codecs.rearrange_goal_to_msg(a_scene().with_blocks(()))
     msg.layout.goal.slots[0].block_id = -1  # labeled goal, slot without a block
-    refused(ic.rearrange_goal_from_msg, msg, "layout.goal.slots[0].block_id")
-    msg = ic.goal_layout_to_msg(a_scene().with_blocks(()))
+    refused(msg_codecs.rearrange_goal_from_msg, msg, "layout.goal.slots[0].block_id")
+    msg = msg_codecs.goal_layout_to_msg(a_scene().with_blocks(()))
     msg.header.frame_id = "camera_optical_frame"
-    refused(ic.goal_layout_from_msg, msg, "header.frame_id")
+    refused(msg_codecs.goal_layout_from_msg, msg, "header.frame_id")
     msg.header.frame_id = ""  # empty reads as world
-    assert ic.goal_layout_from_msg(msg) == a_scene().with_blocks(())
+    assert msg_codecs.goal_layout_from_msg(msg) == a_scene().with_blocks(())
 
 
 def test_goal_forms_must_be_consistent():
-    msg = ic.goal_to_msg(a_scene().goal)
+    msg = msg_codecs.goal_to_msg(a_scene().goal)
     msg.form = 0
-    refused(ic.goal_from_msg, msg, "goal.form")
-    msg = ic.goal_to_msg(a_scene().goal)
+    refused(msg_codecs.goal_from_msg, msg, "goal.form")
+    msg = msg_codecs.goal_to_msg(a_scene().goal)
     msg.grid.rows = 2
-    refused(ic.goal_from_msg, msg, "goal.grid")
-    msg = ic.goal_to_msg(Goal(grid=GridSpec(2, 2, (0.7, 0.0))))
-    msg.slots = ic.goal_to_msg(a_scene().goal).slots
-    refused(ic.goal_from_msg, msg, "goal.slots")
-    msg = ic.goal_to_msg(Goal(grid=GridSpec(2, 2, (0.7, 0.0))))
+    refused(msg_codecs.goal_from_msg, msg, "goal.grid")
+    msg = msg_codecs.goal_to_msg(Goal(grid=GridSpec(2, 2, (0.7, 0.0))))
+    msg.slots = msg_codecs.goal_to_msg(a_scene().goal).slots
+    refused(msg_codecs.goal_from_msg, msg, "goal.slots")
+    msg = msg_codecs.goal_to_msg(Goal(grid=GridSpec(2, 2, (0.7, 0.0))))
     msg.grid.cols = 0
-    refused(ic.goal_from_msg, msg, "goal.grid.cols")
-    msg = ic.goal_to_msg(a_scene().goal)
+    refused(msg_codecs.goal_from_msg, msg, "goal.grid.cols")
+    msg = msg_codecs.goal_to_msg(a_scene().goal)
     msg.slots = []
-    refused(ic.goal_from_msg, msg, "goal.slots")
-    msg = ic.scene_to_msg(a_scene().with_goal(None))
+    refused(msg_codecs.goal_from_msg, msg, "goal.slots")
+    msg = msg_codecs.scene_to_msg(a_scene().with_goal(None))
     msg.goal.form = GoalSpec.FORM_SLOTS
-    refused(ic.scene_from_msg, msg, "goal")
-    request = ic.plan_request_to_msg(PlanRequest(a_scene()))
+    refused(msg_codecs.scene_from_msg, msg, "goal")
+    request = msg_codecs.plan_request_to_msg(PlanRequest(a_scene()))
     request.scene.has_goal = False
     request.scene.goal = GoalSpec()
-    refused(ic.plan_request_from_msg, request, "scene.has_goal")
+    refused(msg_codecs.plan_request_from_msg, request, "scene.has_goal")
 
 
 def test_detections_check_their_reprojection_errors():
     block_set = BlockSet((BlockPose(1, 0, 0), BlockPose(2, 0.1, 0)), reprojection_px={2: 0.4})
-    msg = ic.block_set_to_msg(block_set)
+    msg = msg_codecs.block_set_to_msg(block_set)
     assert list(msg.reprojection_error_px) == [BlockPoseArray.UNKNOWN_ERROR, 0.4]
     msg.reprojection_error_px = [0.4]
-    refused(ic.block_set_from_msg, msg, "reprojection_error_px")
+    refused(msg_codecs.block_set_from_msg, msg, "reprojection_error_px")
     msg.reprojection_error_px = [0.4, -3.0]
-    refused(ic.block_set_from_msg, msg, "reprojection_error_px[1]")
+    refused(msg_codecs.block_set_from_msg, msg, "reprojection_error_px[1]")
     with pytest.raises(MessageError, match=re.escape("reprojection_px[9]")):
-        ic.block_set_to_msg(BlockSet((BlockPose(1, 0, 0),), reprojection_px={9: 0.1}))
+        msg_codecs.block_set_to_msg(BlockSet((BlockPose(1, 0, 0),), reprojection_px={9: 0.1}))
 
 
 def test_plan_params_that_ros_cannot_hold_are_refused():
     with pytest.raises(MessageError, match=re.escape("params.mixed")):
-        ic.plan_to_msg(Plan((), params={"mixed": [1, 2.5]}))
+        msg_codecs.plan_to_msg(Plan((), params={"mixed": [1, 2.5]}))
     with pytest.raises(MessageError, match=re.escape("params.nested")):
-        ic.plan_to_msg(Plan((), params={"nested": [[1.0]]}))
+        msg_codecs.plan_to_msg(Plan((), params={"nested": [[1.0]]}))
     with pytest.raises(MessageError, match=re.escape("overrides.budget_s")):
         PlanRequest(a_scene(), {"budget_s": math.nan})
-    msg = ic.plan_to_msg(Plan(()))
+    msg = msg_codecs.plan_to_msg(Plan(()))
     msg.params = [Parameter(name="blob", value=ParameterValue(
         type=ParameterType.PARAMETER_BYTE_ARRAY))]
-    refused(ic.plan_from_msg, msg, "params[0].value.type")
+    refused(msg_codecs.plan_from_msg, msg, "params[0].value.type")
     msg.params = [Parameter(name="", value=ParameterValue(type=ParameterType.PARAMETER_BOOL))]
-    refused(ic.plan_from_msg, msg, "params[0].name")
+    refused(msg_codecs.plan_from_msg, msg, "params[0].name")
 
 
 def test_replies_and_results_must_be_consistent():
-    reply = ic.plan_reply_to_msg(PlanReply.planned(Plan(())))
+    reply = msg_codecs.plan_reply_to_msg(PlanReply.planned(Plan(())))
     reply.error_code = PlanScene.Response.ERROR_NO_PLAN
-    refused(ic.plan_reply_from_msg, reply, "success")
+    refused(msg_codecs.plan_reply_from_msg, reply, "success")
     refusal = PlanReply.refused("invalid_scene", "overlap", 3, "scene.blocks[3]")
-    reply = ic.plan_reply_to_msg(refusal)
+    reply = msg_codecs.plan_reply_to_msg(refusal)
     reply.plan.plan_id = "stale"
-    refused(ic.plan_reply_from_msg, reply, "plan")
-    result = ic.rearrange_result_to_msg(
+    refused(msg_codecs.plan_reply_from_msg, reply, "plan")
+    result = msg_codecs.rearrange_result_to_msg(
         RearrangeResult("failed", block_errors=(BlockError(4, 0.0, 0.0, found=False),)))
     result.block_errors[0].position_error_m = 0.01
-    refused(ic.rearrange_result_from_msg, result, "block_errors[0].position_error_m")
+    refused(msg_codecs.rearrange_result_from_msg, result, "block_errors[0].position_error_m")
     result.block_errors[0].found, result.block_errors[0].yaw_error_rad = True, -0.1
-    refused(ic.rearrange_result_from_msg, result, "block_errors[0].yaw_error_rad")
+    refused(msg_codecs.rearrange_result_from_msg, result, "block_errors[0].yaw_error_rad")
 
 
 def test_values_out_of_the_message_range_are_refused_on_encode():
     with pytest.raises(MessageError, match=re.escape("blocks[0].id")):
-        ic.scene_to_msg(Scene(WS, S, (BlockPose(2**31, 0.6, 0.0),)))
+        msg_codecs.scene_to_msg(Scene(WS, S, (BlockPose(2**31, 0.6, 0.0),)))
     with pytest.raises(MessageError, match=re.escape("action_index")):
-        ic.rearrange_feedback_to_msg(RearrangeFeedback("running", action_index=2**32))
+        msg_codecs.rearrange_feedback_to_msg(RearrangeFeedback("running", action_index=2**32))
     with pytest.raises(MessageError, match=re.escape("seed")):
-        ic.plan_to_msg(Plan((), seed=2**63))
+        msg_codecs.plan_to_msg(Plan((), seed=2**63))
     with pytest.raises(MessageError, match=re.escape("blocks")):
-        ic.goal_layout_to_msg(a_scene())
+        msg_codecs.goal_layout_to_msg(a_scene())
 
 
 def test_strings_ros_cannot_carry_are_refused_on_encode():
     with pytest.raises(MessageError, match="detail"):
-        ic.executor_status_to_msg(ExecutorStatus("idle", detail="a\x00b"))
+        msg_codecs.executor_status_to_msg(ExecutorStatus("idle", detail="a\x00b"))
     with pytest.raises(MessageError, match="plan_id"):
-        ic.plan_to_msg(Plan((), plan_id="\x00"))
+        msg_codecs.plan_to_msg(Plan((), plan_id="\x00"))
     with pytest.raises(MessageError, match=re.escape("params.names[1]")):
-        ic.plan_to_msg(Plan((), params={"names": ["a", "b\x00"]}))
+        msg_codecs.plan_to_msg(Plan((), params={"names": ["a", "b\x00"]}))
     with pytest.raises(MessageError, match="last_error"):
-        ic.planner_status_to_msg(PlannerStatus("failed", last_error="\ud800"))
+        msg_codecs.planner_status_to_msg(PlannerStatus("failed", last_error="\ud800"))

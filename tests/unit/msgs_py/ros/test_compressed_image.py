@@ -7,8 +7,8 @@ import pytest
 from sensor_msgs.msg import CompressedImage
 
 from msgs_py import MessageError
-from msgs_py.image_codecs import array_to_compressed_image, compressed_image_to_array
-from msgs_py.ros_codecs import stamp_to_ns
+from msgs_py.ros import stamp_to_ns
+from msgs_py.ros.image import array_to_compressed_image, compressed_image_to_array
 
 
 def gradient(h: int = 48, w: int = 64) -> np.ndarray:
