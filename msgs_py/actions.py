@@ -1,4 +1,4 @@
-"""Manipulation actions and plans (DESIGN §5).
+"""Manipulation actions and plans.
 
 ``PickPlace`` lifts a block with one of its two grasps and sets it down elsewhere; ``Push``
 slides it in a straight line along ``direction`` (a unit vector in ``world``) by

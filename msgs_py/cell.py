@@ -91,7 +91,7 @@ class GripperGeometry:
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> GripperGeometry:
-        """From a plan's ``params`` (DESIGN §5); entries it lacks take the contract's values."""
+        """From a plan's ``params`` ; entries it lacks take the contract's values."""
         given = {f.name: float(params[f.name]) for f in dataclasses.fields(cls)
                  if f.name in params}
         return cls(**given)

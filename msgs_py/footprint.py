@@ -1,6 +1,6 @@
 """Footprints in the table plane: blocks, grasping fingers, pushes, and the overlap test.
 
-The planar model of DESIGN §6 and docs/contracts.md, shared by the scene checks, the planner
+The planar model of docs/contracts.md, shared by the scene checks, the planner
 and the executor. Everything is vectorised over K poses: functions return corner arrays of
 shape (K, ..., 4, 2) (rectangles, counter-clockwise), and ``overlapping_pairs`` answers bulk
 queries with one shapely STRtree query. Footprints that only touch (a zero gap in a dense

@@ -1,4 +1,4 @@
-"""Scenes and goals: the workspace, the blocks in it and the layout they must reach (DESIGN §5).
+"""Scenes and goals: the workspace, the blocks in it and the layout they must reach.
 
 A ``Scene`` validates itself on construction, so every ``Scene`` object in the program is
 consistent: no overlapping blocks, every footprint inside the workspace, goal ids known,

@@ -2,7 +2,7 @@
 
 Used by the sim's random scene generator and by every benchmark, so all of them draw the
 same instances for the same (n, density, seed). Density = total block footprint area /
-workspace area (DESIGN §7).
+workspace area.
 """
 
 from __future__ import annotations

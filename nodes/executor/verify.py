@@ -1,7 +1,7 @@
 """Comparing what the camera sees with what should be there.
 
 Cube footprints repeat every 90 degrees, so yaw errors are taken modulo 90 degrees unless
-a goal asks for ``yaw_exact`` (DESIGN §5).
+a goal asks for ``yaw_exact``.
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ class PlannerConfig:
         cell.TABLE_MARGIN,
         "how far the table extends past the block workspace on every side: fingers "
         "may stand there, blocks may not", unit="m")
-    # --- cost (DESIGN §6) ---------------------------------------------------------------------
+    # --- cost (the edge cost) -----------------------------------------------------------------
     a1: float = param(1.0, "cost of one pick-and-place action")
     a2: float = param(1.5, "cost of one push (> a1: pushes are less precise)")
     a3: float = param(1.5, "cost per movable block an action collides with (Nc)")

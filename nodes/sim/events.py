@@ -1,4 +1,4 @@
-"""Event monitor: unintended contacts and lost blocks, counted the way DESIGN §7 measures them.
+"""Event monitor: unintended contacts and lost blocks, as the cell benchmark counts them.
 
 Pure logic: the world hands over, every few physics steps, the contact pairs it sees (already
 classified as arm / gripper / finger / block) and each block's pose and speeds.

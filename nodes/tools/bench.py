@@ -1,10 +1,10 @@
-"""``densepack-bench SUITE``: one interface for every benchmark (DESIGN §7).
+"""``densepack-bench SUITE``: one interface for every benchmark (figures: docs/benchmarks.md).
 
 ``densepack-bench SUITE [--quick] [--seeds K] [--json PATH] [suite options]`` runs the
 suite, prints a table and writes ``{"suite", "machine", "git_rev", "created", "args",
 "rows"}``. A suite is a module with ``add_arguments(parser)`` (its own options),
-``run(opts) -> list[dict]`` (one row per instance set, figures named as in DESIGN §7) and
-optionally ``COLUMNS`` (the columns the table shows, in order).
+``run(opts) -> list[dict]`` (one row per instance set, figures named as in docs/benchmarks.md)
+and optionally ``COLUMNS`` (the columns the table shows, in order).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``densepack-goal``: publishes a scene file's goal layout, latched, on ``/goal_layout``.
 
-The user's side of DESIGN §4 (user -> planner), the latched-topic style: the layout is the
+The user's side of the goal (user -> planner), the latched-topic style: the layout is the
 scene file without its blocks (workspace, block size, goal, labeled), validated by msgs_py
 before it is sent, so a bad file is refused here with a message naming the field, not
 downstream. The action style is ``/rearrange`` (``densepack-run`` is its client).

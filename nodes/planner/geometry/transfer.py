@@ -1,6 +1,6 @@
 """Single actions between poses: what a pick-and-place or a push needs, and what it costs.
 
-The one place that knows what makes one action feasible (DESIGN §6, docs/contracts.md) and
+The one place that knows what makes one action feasible (docs/contracts.md) and
 what it costs. The roadmap, the plan passes (shortcut, necessity), the goal-layout order,
 the lower bound, the exact search and the unlabeled cell geometry all ask it, vectorised
 over many poses at once:
@@ -45,7 +45,7 @@ GRASPS = np.arange(2)
 
 @dataclass(frozen=True)
 class CostModel:
-    """Edge cost of DESIGN §6: ``a1*[pick_place] + a2*[push] + a3*Nc`` (+ distance terms)."""
+    """The edge cost: ``a1*[pick_place] + a2*[push] + a3*Nc`` (+ distance terms)."""
 
     a1: float
     a2: float

@@ -1,4 +1,4 @@
-"""Independent replay validator: does a plan, executed on its scene, obey DESIGN §6?
+"""Independent replay validator: does a plan, executed on its scene, obey the planar model?
 
 Deliberately a separate code path from the planner's edge checks: footprints are built here
 one action at a time with ``shapely.geometry.box`` + ``shapely.affinity`` (the planner uses

@@ -11,7 +11,7 @@ the concatenated actions and the final state, or raises ``PlanningFailure`` nami
 and the reason of the failure that got furthest (most blocks placed). Differences from the
 pseudocode, all deliberate:
 
-* Algorithm 1 line 7 recurses on ``O_R \\ o_r`` (the paper's typo ``o_b``, DESIGN §6).
+* Algorithm 1 line 7 recurses on ``O_R \\ o_r`` (the paper prints ``o_b``, a typo).
 * A block already on its goal succeeds with an empty action list (the paper's test
   ``pi != {}`` would reject it), and blocks ``keep`` asks to leave on their goal are placed
   from the start (a replan late in a run: the missing few go in around them); if that
