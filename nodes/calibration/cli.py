@@ -29,9 +29,11 @@ import threading
 import time
 from dataclasses import dataclass
 
+import rclpy
 from densepack_interfaces.msg import GripperStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Float64, Header
@@ -262,9 +264,6 @@ class CalibrateNode(Node):
 
 
 def main(args=None) -> int:
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-
     argv = list(sys.argv if args is None else ["densepack-calibrate", *args])
     user_args, ros_argv = split_ros_args(argv)
     rows = describe_config(CalibrateConfig) + describe_config(ArmRoutineConfig, "arm.")

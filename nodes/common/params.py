@@ -26,6 +26,9 @@ from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Any, TypeVar
 
+import yaml
+from rcl_interfaces.msg import ParameterDescriptor
+
 C = TypeVar("C")
 
 #: Parameters every ROS node has: a parameter file may give them to any node.
@@ -112,7 +115,6 @@ def declare_config(node: Any, cls: type[C], prefix: str = "") -> C:
         ValueError: a value of the wrong type or one the config's own checks refuse; the
             message names the parameter.
     """
-    from rcl_interfaces.msg import ParameterDescriptor
 
     values: dict[str, Any] = {}
     for f, meta in _param_fields(cls):
@@ -163,7 +165,6 @@ def read_params_file(path: str | Path, node_name: str | None = None) -> dict[str
         OSError: the file cannot be read.
         ValueError: the file is not a parameter file (names the file and what is wrong).
     """
-    import yaml
 
     data = yaml.safe_load(Path(path).read_text())
     if data is None:

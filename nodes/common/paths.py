@@ -10,6 +10,8 @@ import os
 from functools import cache
 from pathlib import Path
 
+from ament_index_python.packages import get_package_share_directory
+
 
 @cache
 def share_dir() -> Path:
@@ -21,8 +23,6 @@ def share_dir() -> Path:
     if (checkout / "config").is_dir() and (checkout / "sim_assets").is_dir():
         return checkout
     try:
-        from ament_index_python.packages import get_package_share_directory
-
         return Path(get_package_share_directory("densepack"))
     except (ImportError, LookupError, ValueError):
         return checkout

@@ -16,12 +16,21 @@ the Jazzy idiom. It returns (and the console script exits with) 0 on Ctrl-C / SI
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
+
+import rclpy
+from rclpy.executors import (
+    ExternalShutdownException,
+    MultiThreadedExecutor,
+    SingleThreadedExecutor,
+)
+from rclpy.utilities import remove_ros_args
 
 from nodes.common.params import describe_config
 
@@ -53,7 +62,6 @@ class NodeSpec:
 
 def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     """Separate a command line into (user args, full argv for rclpy)."""
-    from rclpy.utilities import remove_ros_args
 
     return list(remove_ros_args(list(argv)))[1:], list(argv)
 
@@ -70,7 +78,6 @@ def die_with_launcher() -> None:
     launcher = os.environ.get(LAUNCHER_PID_ENV)
     if not launcher or not sys.platform.startswith("linux"):
         return
-    import ctypes
 
     pr_set_pdeathsig = 1
     ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
@@ -80,12 +87,6 @@ def die_with_launcher() -> None:
 
 def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     """Run ``spec``'s node until shutdown; returns the process exit code."""
-    import rclpy
-    from rclpy.executors import (
-        ExternalShutdownException,
-        MultiThreadedExecutor,
-        SingleThreadedExecutor,
-    )
 
     argv = list(sys.argv if args is None else [f"densepack-{spec.name}", *args])
     user_args, ros_argv = split_ros_args(argv)

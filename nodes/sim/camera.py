@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
+import pybullet
 
 from msgs_py.camera import NO_DISTORTION, CameraIntrinsics
 from nodes.common.lens import distort_pixels, lens_warp, undistort_pixels
@@ -135,7 +136,6 @@ class SimCamera:
 
 def _render_pinhole(client, camera: SimCamera) -> np.ndarray:
     """(H, W, 3) uint8 RGB of the pinhole ``camera`` (TinyRenderer, headless)."""
-    import pybullet
 
     _, _, rgba, _, _ = client.getCameraImage(
         camera.width, camera.height, camera.view_matrix(), camera.projection_matrix(),

@@ -10,15 +10,12 @@ joint and the 2F-85's object detection are read back from the measured pads.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import pybullet
 
 from nodes.robot import gripper_2f85 as g85
 from nodes.sim import robot_model as rm
-
-if TYPE_CHECKING:
-    from nodes.sim.world import SimWorld
+from nodes.sim.bodies import WorldBodies
 
 #: The gripper reports "at the requested position" within this of it (m), and "moving" while
 #: the fingers' combined speed exceeds this (m/s).
@@ -27,7 +24,7 @@ GRIPPER_MOVING_SPEED = 0.002
 
 
 class Fingers:
-    def __init__(self, world: SimWorld) -> None:
+    def __init__(self, world: WorldBodies) -> None:
         self.world = world
         self.reset()
 

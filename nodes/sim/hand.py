@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pybullet
@@ -20,9 +19,8 @@ import pybullet
 from msgs_py import BlockPose
 from msgs_py.sim import SimFault
 from nodes.sim import robot_model as rm
-
-if TYPE_CHECKING:
-    from nodes.sim.world import SimWorld
+from nodes.sim.bodies import WorldBodies
+from nodes.sim.fingers import Fingers
 
 GRAVITY = 9.81
 #: /sim/disturb: the "hand" pushes at this speed and gives up after this long.
@@ -51,8 +49,9 @@ class Disturbance:
 
 
 class Hand:
-    def __init__(self, world: SimWorld) -> None:
+    def __init__(self, world: WorldBodies, fingers: Fingers) -> None:
         self.world = world
+        self.fingers = fingers
         self.reset()
 
     def reset(self) -> None:
@@ -115,9 +114,9 @@ class Hand:
         w = self.world
         kind = self.armed
         if kind in ("drop", "slip"):
-            block = w.fingers.held_block()
+            block = self.fingers.held_block()
             if block is not None and w.block_position(block)[2] > LIFTED_Z:
-                w.fingers.slippery_pads(0.0, DROP_S if kind == "drop" else SLIP_S)
+                self.fingers.slippery_pads(0.0, DROP_S if kind == "drop" else SLIP_S)
                 self._fired(kind, block)
         elif kind == "miss":
             tcp, quat = w.tcp_pose()
@@ -126,7 +125,7 @@ class Hand:
                 pos = w.block_position(block)
                 over = math.hypot(tcp[0] - pos[0], tcp[1] - pos[1]) < 0.01
                 if (over and MISS_Z[0] < tcp[2] < MISS_Z[1]
-                        and w.fingers.gripper_gap > rm.BLOCK_SIZE):
+                        and self.fingers.gripper_gap > rm.BLOCK_SIZE):
                     # aside across the closing axis, far enough for the fingers to miss it
                     dx, dy = self._roomier_side(block, (-closing[1], closing[0]))
                     self.disturb(block, dx * MISS_DISTANCE, dy * MISS_DISTANCE, speed=MISS_SPEED)

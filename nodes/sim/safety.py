@@ -10,12 +10,10 @@ did stops it again, until the force has stayed below half the limit for ``BACK_O
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-if TYPE_CHECKING:
-    from nodes.sim.world import SimWorld
+from nodes.sim.bodies import WorldBodies
+from nodes.sim.robot_state import RobotState
 
 #: After an unlock the arm is off what stopped it once the force has stayed below half the
 #: limit this long (s): a block pressed into the table springs back for a few steps.
@@ -23,8 +21,9 @@ BACK_OFF_S = 0.1
 
 
 class ForceGuard:
-    def __init__(self, world: SimWorld) -> None:
+    def __init__(self, world: WorldBodies, robot_state: RobotState) -> None:
         self.world = world
+        self.robot_state = robot_state
         self.reset()
 
     def reset(self) -> None:
@@ -67,7 +66,7 @@ class ForceGuard:
             tcp = w.tcp_pose()[0]
             why = (f"{force:.0f} N on the robot at TCP ({tcp[0]:.3f}, {tcp[1]:.3f}, "
                    f"{tcp[2]:.3f}), limit {limit:.0f} N")
-            w.robot_state.protective_stop(w.time_s, why)
+            self.robot_state.protective_stop(w.time_s, why)
             self.protective_stops += 1
 
     def unlocked(self) -> None:

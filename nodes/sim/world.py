@@ -81,8 +81,8 @@ class SimWorld:
         self.monitor: EventMonitor | None = None
         self.step_count = 0
         self.fingers = Fingers(self)
-        self.guard = ForceGuard(self)
-        self.hand = Hand(self)
+        self.guard = ForceGuard(self, self.robot_state)
+        self.hand = Hand(self, self.fingers)
         self.reset(scene)
 
     # --- building -------------------------------------------------------------------------------

@@ -17,6 +17,19 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosbags.interfaces import (
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from nodes.common.messages import canonical_type_name
+
 #: Interface packages outside the typestore's own ROS 2 Jazzy set, learnt from their .msg files:
 #: the cell's own, and the UR driver's (its topics are recorded too).
 OWN_INTERFACE_PACKAGES = ("densepack_interfaces", "ur_dashboard_msgs")
@@ -45,7 +58,6 @@ def interface_share_dir(package: str) -> Path:
 @cache
 def typestore() -> Any:
     """The rosbags typestore of ROS 2 Jazzy plus every ``OWN_INTERFACE_PACKAGES`` message."""
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS2_JAZZY)
     types: dict[str, Any] = {}
@@ -68,7 +80,6 @@ def message_definition(type_name: str) -> str:
     Raises:
         KeyError: a type the typestore does not know.
     """
-    from nodes.common.messages import canonical_type_name
 
     name = canonical_type_name(type_name)
     text, _ = typestore().generate_msgdef(name, ros_version=2)
@@ -105,7 +116,6 @@ def publisher_qos(infos: Iterable[Any]) -> list[Any]:
 def subscription_qos(offered: list[Any], depth: int = RECORD_DEPTH) -> Any:
     """The QoS that hears every offering publisher and gets a latched topic's last message:
     best effort if any publisher is, transient local if all latch."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     best_effort = any(q.reliability == ReliabilityPolicy.BEST_EFFORT for q in offered)
     latched = bool(offered) and all(
@@ -120,8 +130,6 @@ def replay_qos(offered: list[Any]) -> Any:
     """The QoS a player offers for a topic recorded with ``offered`` (rosbags ``Qos``):
     latched if the recorded publishers all latched (depth 1: a late subscriber gets the last
     message, as from the original), reliable unless they were all best effort."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from rosbags.interfaces import QosDurability, QosReliability
 
     latched = bool(offered) and all(
         q.durability == QosDurability.TRANSIENT_LOCAL for q in offered)
@@ -135,14 +143,6 @@ def replay_qos(offered: list[Any]) -> Any:
 
 def to_bag_qos(profile: Any) -> Any:
     """An rclpy ``QoSProfile`` as rosbags' ``Qos`` (the bag's ``offered_qos_profiles``)."""
-    from rosbags.interfaces import (
-        Qos,
-        QosDurability,
-        QosHistory,
-        QosLiveliness,
-        QosReliability,
-        QosTime,
-    )
 
     def span(duration: Any) -> Any:
         ns = int(duration.nanoseconds)

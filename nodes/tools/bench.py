@@ -27,7 +27,7 @@ SUITES = {
     "arm": "nodes.bench.arm",
     "perception": "nodes.detector.bench",
     "planner": "nodes.bench.planner",
-    "cell": "nodes.tools.cell_bench",
+    "cell": "nodes.bench.cell",
     "unlabeled": "nodes.bench.unlabeled",
     "reference": "nodes.bench.reference",
     "placement": "nodes.executor.placement_bench",

@@ -16,7 +16,10 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+import rclpy
 import yaml
+from rclpy.executors import ExternalShutdownException
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from nodes.common.messages import canonical_type_name, import_message_type, message_to_dict
 from nodes.common.runner import split_ros_args
@@ -47,7 +50,6 @@ def format_message(msg: Any, as_json: bool, full: bool) -> str:
 
 def subscription_qos(node: Any, topic: str) -> Any:
     """Match the publishers: transient-local if they all latch, best-effort if any is."""
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
     infos = node.get_publishers_info_by_topic(topic)
     latched = bool(infos) and all(
@@ -62,8 +64,6 @@ def subscription_qos(node: Any, topic: str) -> Any:
 
 
 def find_topic_type(node: Any, topic: str, deadline: float | None) -> str | None:
-    import rclpy
-
     while deadline is None or time.monotonic() < deadline:
         for name, types in node.get_topic_names_and_types():
             if name == topic and types:
@@ -73,9 +73,6 @@ def find_topic_type(node: Any, topic: str, deadline: float | None) -> str | None
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    import rclpy
-    from rclpy.executors import ExternalShutdownException
-
     argv = list(sys.argv if args is None else ["densepack-echo", *args])
     user_args, ros_argv = split_ros_args(argv)
     opts = build_parser().parse_args(user_args)

@@ -18,6 +18,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import rclpy
+from builtin_interfaces.msg import Time
+from rclpy.duration import Duration
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosbags.rosbag2 import Reader
+from rosbags.rosbag2.errors import ReaderError
+from rosgraph_msgs.msg import Clock
+
 from nodes.common.messages import import_message_type
 from nodes.common.runner import split_ros_args
 from nodes.tools import bags
@@ -31,9 +40,6 @@ class Player:
 
     def __init__(self, node: Any, reader: Any, topics: Sequence[str] = (), rate: float = 1.0,
                  clock_hz: float = 50.0) -> None:
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
-        from rosgraph_msgs.msg import Clock
-
         if rate <= 0:
             raise ValueError(f"--rate must be positive, not {rate}")
         self.reader = reader
@@ -62,8 +68,6 @@ class Player:
         return bag0 + round((wall - wall0) * self.rate * 1e9)
 
     def _publish_clock(self, stamp_ns: int) -> None:
-        from builtin_interfaces.msg import Time
-
         if self.clock_pub is not None and stamp_ns > self.clock_ns:
             self.clock_ns = stamp_ns
             self.clock_pub.publish(self.clock_msg(clock=Time(sec=stamp_ns // 10**9,
@@ -111,7 +115,6 @@ class Player:
     def flush(self, timeout_s: float = 2.0) -> None:
         """Wait until reliable subscribers acknowledged what was sent: a player that exits
         right after its last message would take that message with it."""
-        from rclpy.duration import Duration
 
         for publisher in {id(p): p for p in self.publishers.values()}.values():
             publisher.wait_for_all_acked(Duration(seconds=timeout_s))
@@ -143,11 +146,6 @@ def describe(reader: Any) -> str:
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    import rclpy
-    from rclpy.signals import SignalHandlerOptions
-    from rosbags.rosbag2 import Reader
-    from rosbags.rosbag2.errors import ReaderError
-
     argv = list(sys.argv if args is None else ["densepack-play", *args])
     user_args, ros_argv = split_ros_args(argv)
     opts = build_parser().parse_args(user_args)

@@ -22,6 +22,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+
 from nodes.common.messages import canonical_type_name, import_message_type
 from nodes.common.runner import die_with_launcher, split_ros_args
 from nodes.tools import bags
@@ -154,8 +160,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def open_writer(path: Path, compress: bool) -> Any:
-    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
-
     writer = Writer(path, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
     if compress:  # zstd per MCAP chunk: state streams shrink ~5x, JPEG frames stay as they are
         writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
@@ -164,11 +168,6 @@ def open_writer(path: Path, compress: bool) -> Any:
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy.parameter import Parameter
-    from rclpy.signals import SignalHandlerOptions
-
     argv = list(sys.argv if args is None else ["densepack-record", *args])
     user_args, ros_argv = split_ros_args(argv)
     parser = build_parser()

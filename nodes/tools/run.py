@@ -26,19 +26,20 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
+import rclpy
+import yaml
+from rclpy.context import Context
+from tqdm import tqdm
+
 from msgs_py import Plan, load_scene, save_plan
 from msgs_py.cell import PLACED_TOLERANCE_XY
+from nodes.cell.monitor import RunMonitor, another_cell
+from nodes.cell.processes import CellRun, stop_cells_on_sigterm
+from nodes.cell.run import check_goal, run, run_metrics
+from nodes.cell.timeline import write_timeline
 from nodes.common.paths import config_path
-from nodes.tools.cell_run import (
-    CellRun,
-    RunMonitor,
-    another_cell,
-    check_goal,
-    run,
-    run_metrics,
-    stop_cells_on_sigterm,
-)
-from nodes.tools.timeline import write_timeline
 
 EXIT_CODES = {"done": 0, "failed": 1, "canceled": 1, "crashed": 1, "timeout": 2,
               "rejected": 4}
@@ -51,9 +52,6 @@ RECORDER_CLOSE_S = 30.0
 
 
 def image_to_png(msg: Any, path: Path) -> bool:
-    import cv2
-    import numpy as np
-
     if msg is None or msg.encoding != "rgb8" or not msg.height:
         return False
     rows = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.step)
@@ -76,8 +74,6 @@ class Progress:
     """One line per plan and per feedback step of the goal, and a tqdm bar over the actions."""
 
     def __init__(self, quiet: bool) -> None:
-        from tqdm import tqdm
-
         # A bar redrawn into a log file is megabytes of carriage returns: lines only there.
         live = not quiet and sys.stdout.isatty()
         self.bar = tqdm(total=1, unit="action", dynamic_ncols=True) if live else None
@@ -146,9 +142,6 @@ def stop_recorder(proc: subprocess.Popen) -> bool:
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    import rclpy
-    from rclpy.context import Context
-
     opts = build_parser().parse_args(args)
     scene_file = config_path(opts.scene).resolve()
     try:
@@ -226,7 +219,6 @@ def write_report(report: Path, monitor: RunMonitor, metrics: dict[str, Any]) -> 
 
 def bag_figures(bag: Path) -> dict[str, Any] | None:
     """Messages, topics and size of a closed bag, from its ``metadata.yaml``."""
-    import yaml
 
     try:
         info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]

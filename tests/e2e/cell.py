@@ -13,11 +13,11 @@ from densepack_interfaces.msg import BlockPoseArray
 
 from msgs_py import Scene
 from msgs_py import ros as msg_codecs
+from nodes.cell.launch import load_cell
+from nodes.cell.processes import ACTION_CELL_PARAMS, ACTION_CELL_WITHOUT
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE
 from nodes.executor.verify import goal_errors
-from nodes.tools.cell import load_cell
-from nodes.tools.cell_run import ACTION_CELL_PARAMS, ACTION_CELL_WITHOUT
 
 
 def start_cell(ros, scene_file: Path | str, action: bool = False) -> None:

@@ -19,8 +19,8 @@ from msgs_py import ros as msg_codecs
 from msgs_py import save_scene
 from msgs_py.sim import SimFault
 from nodes.common.qos import LATCHED
+from nodes.goal.node import goal_layout
 from nodes.sim.layout import random_sim_scene
-from nodes.tools.goal import goal_layout
 from tests.actions import Goals
 
 from .cell import assert_every_block_at_its_goal, start_cell

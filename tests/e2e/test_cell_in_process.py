@@ -16,8 +16,8 @@ from geometry_msgs.msg import PoseStamped
 from msgs_py import ros as msg_codecs
 from msgs_py import save_scene
 from nodes.common.qos import LATCHED
+from nodes.goal.node import goal_layout
 from nodes.sim.layout import random_sim_scene
-from nodes.tools.goal import goal_layout
 from tests.actions import Goals, wait_future
 
 from .cell import assert_every_block_at_its_goal, start_cell

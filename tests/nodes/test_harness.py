@@ -13,7 +13,7 @@ from msgs_py import MessageError, load_scene
 from msgs_py.ros import goal_layout_from_msg
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED, RELIABLE
-from nodes.tools.goal import GoalPublisher
+from nodes.goal.node import GoalPublisher
 
 pytestmark = pytest.mark.ros
 

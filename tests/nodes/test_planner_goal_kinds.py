@@ -12,9 +12,9 @@ from msgs_py import ros as msg_codecs
 from nodes.common.paths import config_path
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
+from nodes.goal.node import goal_layout
 from nodes.planner.geometry.validator import validate_plan
 from nodes.planner.node import PlannerNode
-from nodes.tools.goal import goal_layout
 
 pytestmark = pytest.mark.ros
 

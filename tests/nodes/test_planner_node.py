@@ -18,9 +18,9 @@ from msgs_py import ros as msg_codecs
 from msgs_py.tasks import PlanRequest
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
+from nodes.goal.node import goal_layout
 from nodes.planner.geometry.validator import validate_plan
 from nodes.planner.node import PlannerNode
-from nodes.tools.goal import goal_layout
 
 pytestmark = pytest.mark.ros
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 from densepack_interfaces.msg import ExecutorStatus
 
+from nodes.cell.monitor import another_cell
 from nodes.common.qos import LATCHED
-from nodes.tools.cell_run import another_cell
 
 pytestmark = pytest.mark.ros
 

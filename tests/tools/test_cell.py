@@ -62,7 +62,7 @@ def test_list_names_the_node_set():
     out = subprocess.run([script("densepack-cell"), "--list"], capture_output=True, text=True,
                          timeout=60)
     assert out.returncode == 0
-    assert "goal: nodes.tools.goal --ros-args" in out.stdout
+    assert "goal: nodes.goal.node --ros-args" in out.stdout
 
 
 @pytest.mark.parametrize("mode", [[], ["--in-process"]], ids=["processes", "in-process"])
@@ -100,7 +100,7 @@ def test_cell_reports_missing_nodes_and_starts_the_rest():
     assert code == 0, out
     import importlib.util
 
-    from nodes.tools.cell import NODE_MODULES
+    from nodes.cell.launch import NODE_MODULES
 
     missing = [n for n, m in NODE_MODULES.items()
                if importlib.util.find_spec(m.rsplit(".", 1)[0]) is None]
@@ -110,7 +110,7 @@ def test_cell_reports_missing_nodes_and_starts_the_rest():
 
 
 def test_command_line_parameters_override_the_cell_file(tmp_path):
-    from nodes.tools.cell import load_cell
+    from nodes.cell.launch import load_cell
 
     cell = tmp_path / "cell.yaml"
     cell.write_text("parameters: {use_sim_time: true, scene_file: a.yaml}\n"

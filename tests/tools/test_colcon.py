@@ -37,7 +37,7 @@ def installed_env(install: Path) -> dict[str, str]:
 
 def expected_executables() -> list[str]:
     """Every node whose module is in the checkout, as setup.py promises."""
-    names = {"goal": "nodes/tools/goal.py", "echo": "nodes/tools/echo.py",
+    names = {"goal": "nodes/goal/node.py", "echo": "nodes/tools/echo.py",
              "cell": "nodes/tools/cell.py", "sim": "nodes/sim/node.py",
              "detector": "nodes/detector/node.py", "planner": "nodes/planner/node.py",
              "executor": "nodes/executor/node.py", "arm": "nodes/arm/node.py",

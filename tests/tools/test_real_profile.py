@@ -13,8 +13,8 @@ import sys
 import pytest
 
 from msgs_py import drivers
+from nodes.cell.launch import NODE_MODULES, PROFILES, load_cell
 from nodes.common.paths import config_path
-from nodes.tools.cell import NODE_MODULES, PROFILES, load_cell
 from tests.helpers import REPO
 
 #: What the drivers publish, subscribe and serve, as their launch files name them.

@@ -9,17 +9,17 @@ import math
 import numpy as np
 import pytest
 
-from nodes.common.paths import config_path
-from nodes.common.transforms import quaternion_to_matrix
-from nodes.detector.camera_model import load_camera_pose
-from nodes.sim.layout import random_sim_scene
-from nodes.tools.cell_bench import (
+from nodes.bench.cell import (
     CALIBRATION_TILT_DEG,
     FAULTS,
     calibration_off_args,
     free_spot_in,
     is_success,
 )
+from nodes.common.paths import config_path
+from nodes.common.transforms import quaternion_to_matrix
+from nodes.detector.camera_model import load_camera_pose
+from nodes.sim.layout import random_sim_scene
 
 
 def test_the_added_block_lands_clear_of_every_block_and_goal_slot():

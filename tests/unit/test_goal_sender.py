@@ -7,7 +7,7 @@ import threading
 from rclpy.task import Future
 
 from msgs_py import Goal, GoalSlot, Scene, Workspace
-from nodes.tools.cell_run import GoalSender
+from nodes.cell.goal_sender import GoalSender
 
 #: A goal layout of one slot (what it holds does not matter to the client).
 LAYOUT = Scene(Workspace(0.4, 1.0, -0.3, 0.3), 0.0508, (),

@@ -15,7 +15,7 @@ README = (REPO / "README.md").read_text()
 NODES = (REPO / "docs" / "nodes.md").read_text()
 NODE_MODULES = ["nodes.sim.node", "nodes.detector.node", "nodes.planner.node",
                 "nodes.executor.node", "nodes.arm.node", "nodes.gripper.node",
-                "nodes.tools.goal"]
+                "nodes.goal.node"]
 
 
 def section(name: str) -> str:
@@ -67,7 +67,7 @@ def test_the_documented_rearrange_goal_is_the_default_scenes_goal():
     from nodes.common.paths import config_path
     from nodes.executor.config import ExecutorConfig
     from nodes.executor.goals import check_layout
-    from nodes.tools.goal import goal_layout
+    from nodes.goal.node import goal_layout
 
     example = re.search(r'send_goal --feedback /rearrange densepack_interfaces/action/Rearrange '
                         r'"(\{layout:.*?\})"\n', NODES, re.S)

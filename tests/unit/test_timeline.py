@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from nodes.tools.timeline import KIND_COLOURS, ActionSpan, TimelineBuilder, write_timeline
+from nodes.cell.timeline import KIND_COLOURS, ActionSpan, TimelineBuilder, write_timeline
 
 
 def feed_two_plans() -> TimelineBuilder:
@@ -88,6 +88,6 @@ def test_duration_is_end_minus_start():
 
 def test_json_rows_read_back_as_the_spans():
     spans = feed_two_plans().finish(21.0, {3: 0.0004})
-    from nodes.tools.timeline import spans_from_json, spans_to_json
+    from nodes.cell.timeline import spans_from_json, spans_to_json
 
     assert spans_from_json(json.loads(json.dumps(spans_to_json(spans)))) == spans

@@ -19,7 +19,7 @@ EXECUTABLES = {
     "executor": "nodes.executor.node:main",
     "arm": "nodes.arm.node:main",
     "gripper": "nodes.gripper.node:main",
-    "goal": "nodes.tools.goal:main",
+    "goal": "nodes.goal.node:main",
     "calibrate": "nodes.calibration.cli:main",
     "plan": "nodes.planner.cli:main",
     "echo": "nodes.tools.echo:main",

@@ -1,7 +1,7 @@
 """``ros2 launch densepack cell.launch.py [profile:=real]``: densepack's nodes for an apt ROS
 install, the same node set, parameter files, parameters and remappings as
 ``densepack-cell --profile <profile>`` (both read ``config/<profile's cell file>`` through
-``nodes.tools.cell.load_cell``: one home for them).
+``nodes.cell.launch.load_cell``: one home for them).
 
 ``profile:=real`` (the default here) starts detector, planner, arm, gripper and executor on
 the wall clock against ur_robot_driver, the Robotiq driver and a camera driver, which run
@@ -14,7 +14,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from nodes.common.paths import config_path
-from nodes.tools.cell import PROFILES, load_cell
+from nodes.cell.launch import PROFILES, load_cell
 
 
 def _nodes(context, *args, **kwargs):

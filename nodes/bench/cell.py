@@ -34,6 +34,7 @@ meets (what happens; when):
 from __future__ import annotations
 
 import json
+import math
 import statistics
 import tempfile
 import time
@@ -41,17 +42,26 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import rclpy
+from densepack_interfaces.msg import Disturbance as DisturbanceMsg
+from densepack_interfaces.msg import SimFault as SimFaultMsg
+from rclpy.context import Context
+from std_msgs.msg import Float64
+
 from msgs_py import Scene, save_plan, save_scene
+from msgs_py.ros import disturbance_to_msg, sim_fault_to_msg
+from msgs_py.sim import Disturbance
 from msgs_py.sim import SimFault as SimFaultRecord
-from nodes.tools.cell_run import (
-    CellRun,
-    RunMonitor,
-    check_goal,
-    private_domain,
-    run_metrics,
-    stop_cells_on_sigterm,
-)
-from nodes.tools.cell_run import run as run_cell
+from nodes.cell.monitor import RunMonitor
+from nodes.cell.processes import CellRun, private_domain, stop_cells_on_sigterm
+from nodes.cell.run import check_goal, run_metrics
+from nodes.cell.run import run as run_cell
+from nodes.common.paths import config_path
+from nodes.common.qos import RELIABLE
+from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
+from nodes.detector.camera_model import load_camera_pose
+from nodes.sim.layout import random_sim_scene
 
 FAULTS = ("none", "executor_restart", "planner_restart", "detector_restart", "nudge",
           "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
@@ -88,11 +98,6 @@ class FaultInjector:
     """Injects one fault into a running cell when the goal's progress calls for it."""
 
     def __init__(self, name: str, cell: CellRun, monitor: RunMonitor, scene: Scene) -> None:
-        from densepack_interfaces.msg import Disturbance, SimFault
-        from std_msgs.msg import Float64
-
-        from nodes.common.qos import RELIABLE
-
         self.name = name
         self.cell = cell
         self.monitor = monitor
@@ -102,9 +107,9 @@ class FaultInjector:
         self.removed: int | None = None
         self._restart_at: float | None = None
         node = monitor.node
-        self._disturb = node.create_publisher(Disturbance, "/sim/disturb", RELIABLE)
+        self._disturb = node.create_publisher(DisturbanceMsg, "/sim/disturb", RELIABLE)
         self._blackout = node.create_publisher(Float64, "/sim/camera_blackout", RELIABLE)
-        self._fault = node.create_publisher(SimFault, "/sim/fault", RELIABLE)
+        self._fault = node.create_publisher(SimFaultMsg, "/sim/fault", RELIABLE)
         self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
         self._float = Float64
 
@@ -158,15 +163,10 @@ class FaultInjector:
         self.note = note
 
     def _nudge(self, block: int, dx: float, dy: float, when: str) -> None:
-        from msgs_py.ros import disturbance_to_msg
-        from msgs_py.sim import Disturbance
-
         self._disturb.publish(disturbance_to_msg(Disturbance(block, dx, dy)))
         self._fired(f"block {block} nudged by ({dx * 1e3:.0f}, {dy * 1e3:.0f}) mm {when}")
 
     def _sim_fault(self, fault: SimFaultRecord, note: str) -> None:
-        from msgs_py.ros import sim_fault_to_msg
-
         self._fault.publish(sim_fault_to_msg(fault))
         self._fired(note)
 
@@ -174,8 +174,6 @@ class FaultInjector:
 def free_spot_in(scene: Scene) -> tuple[float, float]:
     """The workspace point farthest from every start block and goal slot (where a person
     puts a block down out of the way)."""
-    import numpy as np
-
     ws, s = scene.workspace, scene.block_size
     xs = np.linspace(ws.x_min + s, ws.x_max - s, 21)
     ys = np.linspace(ws.y_min + s, ws.y_max - s, 21)
@@ -192,15 +190,7 @@ def free_spot_in(scene: Scene) -> tuple[float, float]:
 def calibration_off_args() -> tuple[str, ...]:
     """ROS arguments that give the detector a camera pose CALIBRATION_SHIFT_M and
     CALIBRATION_TILT_DEG (about the camera's own x axis) off config/camera_calibration.yaml."""
-    import math
-
-    from nodes.common.paths import config_path
-    from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
-    from nodes.detector.camera_model import load_camera_pose
-
     pose = load_camera_pose(config_path("camera_calibration.yaml"))
-    import numpy as np
-
     a = math.radians(CALIBRATION_TILT_DEG)
     tilt = [[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]]
     rotation = quaternion_to_matrix(pose.orientation_xyzw) @ np.array(tilt)
@@ -212,11 +202,6 @@ def calibration_off_args() -> tuple[str, ...]:
 
 def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float,
               workdir: Path) -> dict[str, Any]:
-    import rclpy
-    from rclpy.context import Context
-
-    from nodes.sim.layout import random_sim_scene
-
     scene = random_sim_scene(blocks, density, seed)
     layout = check_goal(scene)
     scene_file = save_scene(scene, workdir / f"scene_{blocks}_{seed}.yaml")

@@ -1,0 +1,115 @@
+"""The cell's nodes as separate processes (so a fault can kill and restart one), and the
+process-wide settings a run needs: a DDS domain of its own, SIGTERM as Ctrl-C."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import IO, Any
+
+from nodes.cell.launch import NodeLaunch, load_cell
+from nodes.common.harness import allocate_domain_id
+from nodes.common.paths import config_path
+from nodes.common.runner import LAUNCHER_PID_ENV
+
+#: How the run tools change the cell file's node set: no goal node (the goal is a
+#: ``/rearrange`` goal), and an executor that starts a plan only for a goal, so one restarted
+#: mid-run waits for its client to send the goal again instead of resuming on its own.
+ACTION_CELL_WITHOUT = ("goal",)
+ACTION_CELL_PARAMS = {"executor": {"auto_start": False}}
+
+
+class CellRun:
+    """The cell's nodes as separate processes, logging to one file (the goal node left out:
+    the run sends its goal on the action)."""
+
+    def __init__(self, scene_file: Path, log: IO[str], cell_file: str = "cell.yaml",
+                 extra_ros_args: tuple[str, ...] = ()) -> None:
+        launches, missing = load_cell(config_path(cell_file), (),
+                                      {"scene_file": str(scene_file)},
+                                      ACTION_CELL_WITHOUT, ACTION_CELL_PARAMS)
+        if missing:
+            raise RuntimeError(f"the cell is incomplete: {', '.join(missing)} not implemented")
+        self.launches: dict[str, NodeLaunch] = {launch.name: launch for launch in launches}
+        self.extra = list(extra_ros_args)
+        self.log = log
+        self.procs: dict[str, subprocess.Popen] = {}
+        self.killed: set[str] = set()  # killed on purpose (fault injection), not crashed
+        self.pumps: list[threading.Thread] = []
+        self.log_lock = threading.Lock()
+        self.env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0",
+                        **{LAUNCHER_PID_ENV: str(os.getpid())})
+
+    def start(self, name: str | None = None) -> None:
+        for launch in [self.launches[name]] if name else self.launches.values():
+            cmd = [sys.executable, "-m", launch.module, *launch.ros_args(self.extra)]
+            self.procs[launch.name] = self._spawn(launch.name, cmd)
+            self.killed.discard(launch.name)
+
+    def attach(self, name: str, cmd: list[str]) -> subprocess.Popen:
+        """Start a helper process beside the cell (a recorder): same environment and log,
+        but not one of the cell's nodes, so its end is no crash and ``stop`` leaves it be."""
+        return self._spawn(name, cmd)
+
+    def _spawn(self, name: str, cmd: list[str]) -> subprocess.Popen:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                text=True, env=self.env, start_new_session=True)
+        pump = threading.Thread(target=self._pump, args=(name, proc), daemon=True)
+        pump.start()
+        self.pumps.append(pump)
+        return proc
+
+    def _pump(self, name: str, proc: subprocess.Popen) -> None:
+        assert proc.stdout is not None
+        for line in iter(proc.stdout.readline, ""):
+            with self.log_lock:
+                self.log.write(f"[{name}] {line}")
+                self.log.flush()
+
+    def kill(self, name: str) -> None:
+        """SIGKILL one node, as a crash would."""
+        proc = self.procs[name]
+        self.killed.add(name)
+        proc.kill()
+        proc.wait()
+
+    def died(self) -> list[tuple[str, int]]:
+        return [(n, p.returncode) for n, p in self.procs.items()
+                if n not in self.killed and p.poll() is not None and p.returncode != 0]
+
+    def stop(self, grace_s: float = 15.0) -> None:
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + grace_s
+        for proc in self.procs.values():
+            try:
+                proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        for pump in self.pumps:
+            pump.join(timeout=2.0)
+
+
+def private_domain() -> int:
+    """Put this process and the nodes it starts on a DDS domain of their own (kept on this
+    host), so a benchmark never hears a cell someone runs by hand, nor another benchmark."""
+    if "DENSEPACK_PRIVATE_DOMAIN" not in os.environ:
+        os.environ["DENSEPACK_PRIVATE_DOMAIN"] = str(allocate_domain_id(120, 200))
+    os.environ["ROS_DOMAIN_ID"] = os.environ["DENSEPACK_PRIVATE_DOMAIN"]
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    return int(os.environ["ROS_DOMAIN_ID"])
+
+
+def stop_cells_on_sigterm() -> None:
+    """SIGTERM unwinds the main thread like Ctrl-C, so every ``finally: cell.stop()`` runs."""
+    def _exit(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, _exit)

@@ -1,0 +1,167 @@
+"""One run of the whole cell, driven from outside: start the nodes, send the goal, watch,
+inject faults.
+
+``CellRun`` starts every node of the cell file as its own process (so a fault can kill and
+restart one) but the goal node: the goal goes to the executor's ``/rearrange`` action
+(``GoalSender``). ``RunMonitor`` collects what a report needs from the cell's topics and the
+goal's feedback and result, and ``run()`` loops until the goal ends, a node crashes or time
+runs out, calling ``on_progress`` hooks (the run command prints progress, the cell benchmark
+injects faults).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from rclpy.executors import SingleThreadedExecutor
+
+from msgs_py import BlockSet, Scene
+from nodes.cell.goal_sender import GoalSender
+from nodes.cell.launch import load_cell
+from nodes.cell.monitor import RunMonitor
+from nodes.cell.processes import ACTION_CELL_PARAMS, CellRun
+from nodes.common.params import configs_from_parameters, read_params_file
+from nodes.common.paths import config_path
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.goals import check_layout
+from nodes.executor.verify import goal_errors
+from nodes.goal.node import goal_layout
+
+#: Result outcome -> the run's outcome (the names of the exit codes and reports).
+OUTCOMES = {"succeeded": "done", "failed": "failed", "canceled": "canceled",
+            "preempted": "failed"}
+
+
+@dataclass
+class RunResult:
+    outcome: str  # done | failed | canceled | rejected | timeout | crashed
+    wall_time_s: float
+    notes: list[str] = field(default_factory=list)
+
+
+def check_goal(scene: Scene, cell_file: str = "cell.yaml") -> Scene:
+    """The goal layout of ``scene``, checked the way the executor checks a Rearrange goal (its
+    blocks standing in for the first detection; its parameters from the cell file), so a goal
+    the cell would reject is refused here with the reason.
+
+    Raises:
+        MessageError: the scene has no goal, or the cell cannot carry it out (field named).
+    """
+    (executor,), _ = load_cell(config_path(cell_file), ("executor",), {},
+                               node_params=ACTION_CELL_PARAMS)
+    values: dict[str, Any] = {}
+    for path in executor.params_files:
+        values.update(read_params_file(path, "executor"))
+    values.update(executor.parameters)
+    (config,) = configs_from_parameters((("", ExecutorConfig),), values, cell_file)
+    layout = goal_layout(scene)
+    check_layout(layout, BlockSet(scene.blocks, block_size=scene.block_size), config.safe_box)
+    return layout
+
+
+def run(
+    cell: CellRun,
+    monitor: RunMonitor,
+    layout: Scene,
+    timeout_s: float,
+    on_progress: Callable[[RunMonitor, float], None] = lambda m, t: None,
+) -> RunResult:
+    """Send ``layout`` as a Rearrange goal and spin the monitor until the goal ends, a node
+    crashes or time runs out (the goal is then canceled: a safe stop)."""
+    executor = SingleThreadedExecutor(context=monitor.node.context)
+    executor.add_node(monitor.node)
+    sender = GoalSender(monitor, layout)
+    wall0 = time.monotonic()
+    outcome = "timeout"
+    notes: list[str] = []
+    try:
+        while time.monotonic() - wall0 < timeout_s:
+            executor.spin_once(timeout_sec=0.1)
+            crashed = cell.died()
+            if crashed:
+                notes.append(f"node(s) crashed: {crashed}")
+                outcome = "crashed"
+                break
+            sender.step(time.monotonic())
+            on_progress(monitor, time.monotonic() - wall0)
+            if sender.outcome:
+                outcome = OUTCOMES.get(sender.outcome, sender.outcome)
+                settle = time.monotonic() + 2.0
+                while time.monotonic() < settle:  # last ground truth and events
+                    executor.spin_once(timeout_sec=0.1)
+                break
+        else:
+            notes.append(f"no result within {timeout_s:.0f} s; goal canceled")
+            sender.cancel(lambda: executor.spin_once(timeout_sec=0.1))
+        if sender.outcome == "rejected":
+            notes.append("the executor rejected the goal (its reason is in the log)")
+        if sender.resent:
+            notes.append(f"goal sent again {sender.resent} time(s) after its feedback went "
+                         "silent")
+    finally:
+        executor.remove_node(monitor.node)
+        executor.shutdown()
+    return RunResult(outcome, time.monotonic() - wall0, notes)
+
+
+def final_errors(truth: BlockSet | None, scene: Scene) -> list[dict[str, Any]]:
+    """Each goal slot's error against the simulator's ground truth."""
+    if truth is None:
+        return []
+    poses = {b.id: b.pose for b in truth.blocks}
+    return [
+        {"block": d.block, "pos_err_m": d.position_error,
+         "yaw_err_deg": math.degrees(d.yaw_error)}
+        for d in goal_errors(poses, scene)
+    ]
+
+
+def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[str, Any]:
+    """The run report's figures: the goal's result (or, without one, the executor's last
+    status), the ground truth's final errors and the sim's events."""
+    with monitor.lock:
+        status, feedback, final = monitor.executor_status, monitor.feedback, monitor.result
+        plans, truth, events = list(monitor.plans), monitor.ground_truth, monitor.events
+    errors = final_errors(truth, scene)
+    pos = [e["pos_err_m"] for e in errors]
+    yaw = [e["yaw_err_deg"] for e in errors]
+    figures = final.metrics if final is not None else (status.metrics if status else {})
+    last = feedback or status
+    return {
+        "outcome": result.outcome,
+        "notes": result.notes,
+        "executor_state": last.state if last else None,
+        "result": final.detail if final is not None else None,
+        "last_error": status.last_error if status else None,
+        "blocks": len(scene.blocks),
+        "actions_planned": len(plans[0].actions) if plans else None,
+        "actions_executed": figures.get("actions_executed"),
+        "plans": len(plans),
+        "replans": figures.get("replans"),
+        # what went wrong on the way, as the executor counted it (faults_<kind>, ...)
+        "executor_faults": {k: v for k, v in figures.items()
+                            if k.startswith("faults") or k in ("protective_stops",
+                                                               "blocked_descents")},
+        "planning_time_s": [p.planning_time_s for p in plans],
+        "execution_time_s": figures.get("execution_time_s"),
+        "sim_time_s": monitor.sim_time,
+        "wall_time_s": result.wall_time_s,
+        "unintended_contacts": events.unintended_contacts if events else None,
+        "blocks_lost": events.blocks_lost if events else None,
+        "events": events.to_dict()["events"] if events else [],
+        "sim_time_by_activity_s": {k[len("time_"):-2]: v for k, v in figures.items()
+                                   if k.startswith("time_") and k.endswith("_s")},
+        "final_pos_err_max_m": max(pos) if pos else None,
+        "final_pos_err_median_m": sorted(pos)[len(pos) // 2] if pos else None,
+        "final_yaw_err_max_deg": max(yaw) if yaw else None,
+        "final_yaw_err_median_deg": sorted(yaw)[len(yaw) // 2] if yaw else None,
+        "final_errors": errors,
+        "perceived_errors": ([{"block": e.block_id, "found": e.found,
+                               "pos_err_m": e.position_error_m,
+                               "yaw_err_deg": math.degrees(e.yaw_error_rad)}
+                              for e in final.block_errors] if final is not None else []),
+    }

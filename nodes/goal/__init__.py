@@ -1,0 +1,1 @@
+"""The goal publisher (``densepack-goal``): the user's goal layout, latched."""
