@@ -9,8 +9,9 @@ from msgs_py.actions import Action, PickPlace, Plan, Push, action_from_dict
 from msgs_py.detection import BlockSet
 from msgs_py.documents import load_plan, load_scene, parse_text, save_plan, save_scene
 from msgs_py.errors import MessageError
+from msgs_py.goal import Goal, GoalSlot, GridSpec
 from msgs_py.poses import BlockPose, Pose2D, wrap_angle, yaw_difference
-from msgs_py.scene import SCHEMA_VERSION, Goal, GoalSlot, GridSpec, Scene, Workspace
+from msgs_py.scene import SCHEMA_VERSION, Scene, Workspace
 from msgs_py.status import EXECUTOR_STATES, PLANNER_STATES, ExecutorStatus, PlannerStatus
 
 __all__ = [

@@ -89,3 +89,14 @@ def text(field: str, value: Any) -> str:
     if not isinstance(value, str):
         raise MessageError(field, value, "expected a string")
     return value
+
+
+def reject_duplicates(field: str, key: str, values: list[int]) -> None:
+    """MessageError naming the second of two equal ``key`` values in ``field``."""
+    seen: dict[int, int] = {}
+    for k, value in enumerate(values):
+        if value in seen:
+            raise MessageError(
+                f"{field}[{k}].{key}", value, f"duplicate {key} (also at {field}[{seen[value]}])"
+            )
+        seen[value] = k

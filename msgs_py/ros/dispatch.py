@@ -12,6 +12,7 @@ from densepack_interfaces.srv import PlanScene
 
 from msgs_py.actions import PickPlace, Plan, Push
 from msgs_py.detection import BlockSet
+from msgs_py.goal import Goal, GridSpec
 from msgs_py.placement import Placement
 from msgs_py.poses import BlockPose, Pose2D
 from msgs_py.ros.plan import (
@@ -72,7 +73,7 @@ from msgs_py.ros.status import (
     planner_status_from_msg,
     planner_status_to_msg,
 )
-from msgs_py.scene import Goal, GridSpec, Scene, Workspace
+from msgs_py.scene import Scene, Workspace
 from msgs_py.sim import Disturbance, SimEvent, SimEvents, SimFault
 from msgs_py.status import ArmStatus, ExecutorStatus, GripperStatus, PlannerStatus
 from msgs_py.tasks import BlockError, PlanReply, PlanRequest, RearrangeFeedback, RearrangeResult

@@ -8,6 +8,7 @@ from densepack_interfaces import msg as ifc
 
 from msgs_py.detection import BlockSet
 from msgs_py.errors import MessageError
+from msgs_py.goal import Goal, GoalSlot, GridSpec
 from msgs_py.poses import BlockPose, Pose2D
 from msgs_py.ros.fields import (
     UINT32_MAX,
@@ -23,7 +24,7 @@ from msgs_py.ros.fields import (
     text_at,
 )
 from msgs_py.ros.stamps import ns_to_stamp, stamp_to_ns
-from msgs_py.scene import Goal, GoalSlot, GridSpec, Scene, Workspace
+from msgs_py.scene import Scene, Workspace
 
 
 # --- poses ----------------------------------------------------------------------------------------

@@ -31,6 +31,7 @@ import numpy as np
 
 from nodes.planner.budget import Budget
 from nodes.planner.unlabeled.arrangements import ArrangementGoal, SearchSpace, SiteClasses
+from nodes.planner.unlabeled.joins import obstructors, overlap_moves, slide_moves
 from nodes.planner.unlabeled.rpg import (
     RearrangementPebbleGraph,
     Site,
@@ -176,25 +177,6 @@ class HypergraphSearch:
                 break
         return out
 
-    def obstructors(self, arrangement: frozenset[Site], slot: Site) -> list[list[Site]]:
-        """When no block can get to ``slot`` as things stand: sets of blocks whose removal
-        lets one in (e.g. blocks on filled slots in front of it), smallest first, each found
-        by taking every other block away and putting back all that are not in the way."""
-        transfer = self.space.transfer
-        if any(transfer(u, slot, arrangement - {u}) is not None for u in arrangement):
-            return []
-        found: list[list[Site]] = []
-        for u in sorted(arrangement):
-            if transfer(u, slot, frozenset()) is None:
-                continue
-            away = set(arrangement - {u})
-            rank = self.sites.rank
-            for a in sorted(away, key=lambda a: (rank(a) != 0.0, -rank(a), a)):
-                if transfer(u, slot, frozenset(arrangement - {u} - (away - {a}))) is not None:
-                    away.discard(a)  # it can stay
-            found.append(sorted(away, key=lambda a: (self.sites.rank(a) == 0.0, a)))
-        return sorted(found, key=lambda g: (len(g), sum(self.sites.rank(a) == 0.0 for a in g)))
-
     def unblock(self, arrangement: frozenset[Site]
                 ) -> tuple[frozenset[Site], frozenset[Site]] | None:
         """A graph that moves obstructors of the first free slot (those that can move now,
@@ -203,7 +185,7 @@ class HypergraphSearch:
                 if not any(self.space.conflicts(s, a) for a in arrangement)]
         if not free or self.config.b < 1:
             return None
-        for away in self.obstructors(arrangement, free[0]):
+        for away in obstructors(self.space, self.sites, arrangement, free[0]):
             extra = self.space.buffers(arrangement, away, min(len(away), self.config.b),
                                        self.rng)
             movable = [a for a in away
@@ -212,45 +194,6 @@ class HypergraphSearch:
             if movable:
                 return arrangement | set(extra), frozenset(movable)
         return None
-
-    def overlap_moves(self, arrangement: frozenset[Site]) -> list[Transfer]:
-        """Blocks moved straight onto a goal slot that overlaps their own site (and no other
-        block): no graph can hold both sites, so this is a transition between the graph of
-        the arrangement and the graph of the arrangement with the slot instead. Checked with
-        every other block in place, like a graph edge."""
-        out = []
-        unfilled = self.goal.unfilled(arrangement)
-        for a in sorted(arrangement):
-            if not self.sites.hard_bad(a):
-                continue
-            for g in unfilled:
-                if not self.space.conflicts(a, g):
-                    continue
-                others = arrangement - {a}
-                if any(self.space.conflicts(g, o) for o in others):
-                    continue
-                t = self.space.transfer(a, g, others)
-                if t is not None:
-                    out.append(t)
-        return out
-
-    def slide_moves(self, arrangement: frozenset[Site]) -> list[Transfer]:
-        """Blocks on filled slots moved into a free slot that no other block can reach as
-        things stand (walled in by filled slots, the centre of a grid): the slot left behind
-        is on the outside, where a block can get in. A transition like ``overlap_moves``."""
-        out = []
-        transfer = self.space.transfer
-        outside = [u for u in sorted(arrangement) if u not in self.required]
-        for g in self.goal.unfilled(arrangement):
-            if any(self.space.conflicts(g, o) for o in arrangement):
-                continue
-            if any(transfer(u, g, arrangement - {u}) is not None for u in outside):
-                continue
-            for a in sorted(arrangement & self.required):
-                t = transfer(a, g, arrangement - {a})
-                if t is not None:
-                    out.append(t)
-        return out
 
     # --- settling inside one graph ---------------------------------------------------------
     def settle(self, rpg: RearrangementPebbleGraph, arrangement: frozenset[Site],
@@ -386,8 +329,9 @@ class HypergraphSearch:
         when none of the new ones gets closer, the graph that unblocks the next slot."""
         kids = [self.child(node, self.rpg(nodes), evict)
                 for nodes, evict in self.proposals(node.arrangement)]
-        kids += [self.slid(node, t) for t in (*self.overlap_moves(node.arrangement),
-                                              *self.slide_moves(node.arrangement))]
+        joins = (*overlap_moves(self.space, self.goal, self.sites, node.arrangement),
+                 *slide_moves(self.space, self.goal, node.arrangement))
+        kids += [self.slid(node, t) for t in joins]
         fresh = [kid for kid in kids if kid.arrangement not in seen]
         if not any(kid.h < node.h for kid in fresh):
             stuck = self.unblock(node.arrangement)
