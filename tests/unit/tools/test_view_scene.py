@@ -16,7 +16,7 @@ from msgs_py.actions import PickPlace, Push
 from msgs_py.poses import BlockPose, Pose2D
 from nodes.common.paths import config_path
 from nodes.tools import view_scene
-from tests.unit.foxglove_wire import decode
+from tests.unit.tools.foxglove_wire import decode
 
 S = 0.0508
 
