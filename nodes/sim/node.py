@@ -57,7 +57,7 @@ from msgs_py.status import GRIPPER_OBJECT_STATES
 from msgs_py.status import GripperStatus as GripperStatusRecord
 from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config
-from nodes.common.qos import CAMERA, LATCHED, RELIABLE
+from nodes.common.qos import LATCHED, RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.layout import load_sim_scene, scene_problems
@@ -126,12 +126,13 @@ class SimNode(Node):
         self.pub_truth_markers = self.create_publisher(MarkerArray, "/sim/ground_truth/markers",
                                                        RELIABLE)
         self.pub_events = self.create_publisher(SimEvents, "/sim/events", LATCHED)
-        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
-        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
+        camera = camera_qos(self.camera_config.reliability)
+        self.pub_image = self.create_publisher(Image, "/camera/image_raw", camera)
+        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", camera)
         # image_transport's compressed sibling (JPEG, ~115 kB): what viewers, best-effort
         # subscribers and bags take. Encoded only while someone listens.
         self.pub_compressed = self.create_publisher(CompressedImage,
-                                                    "/camera/image_raw/compressed", CAMERA)
+                                                    "/camera/image_raw/compressed", camera)
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self._on_setpoint,
                                  RELIABLE, callback_group=group)
         self.create_subscription(Float64, "/gripper/command", self._on_gripper, RELIABLE,
@@ -384,7 +385,8 @@ class SimNode(Node):
         self.pub_image.publish(array_to_image(rgb, stamp_ns))
         if self.pub_compressed.get_subscription_count():
             self.pub_compressed.publish(array_to_compressed_image(rgb, stamp_ns))
-        self.pub_info.publish(intrinsics_to_camera_info(self.world.camera.intrinsics, stamp_ns))
+        self.pub_info.publish(intrinsics_to_camera_info(
+            self.world.camera.intrinsics, stamp_ns, rectified=self.world.camera.rectified))
         return stamp_ns
 
     def destroy_node(self) -> None:

@@ -24,7 +24,7 @@ from typing import Any
 
 SUITES = {
     "sim": "nodes.sim.bench",
-    "perception": "nodes.detector.bench",
+    "perception": "nodes.bench.perception",
     "planner": "nodes.planner.bench",
     "cell": "nodes.tools.cell_bench",
     "unlabeled": "nodes.planner.unlabeled_bench",

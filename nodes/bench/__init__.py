@@ -1,0 +1,1 @@
+"""Benchmarks: suites of ``densepack-bench`` that drive several node packages together."""
