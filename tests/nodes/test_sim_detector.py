@@ -8,10 +8,13 @@ import numpy as np
 import pytest
 from densepack_interfaces.msg import BlockPoseArray
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import CameraInfo
 
 from msgs_py.interface_codecs import block_set_from_msg
 from msgs_py.ros_codecs import stamp_to_ns
+from nodes.bench.perception_frames import LENSES
 from nodes.common.paths import config_path
+from nodes.common.qos import camera_qos
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
 from nodes.detector.calibrate_cli import CalibrateNode
 from nodes.detector.camera_model import load_camera_pose
@@ -30,6 +33,27 @@ def calibration_params() -> list[Parameter]:
 def test_sim_frames_become_detections_matching_the_ground_truth(ros):
     sim = ros.add(SimNode(context=ros.context))
     ros.add(DetectorNode(context=ros.context, parameter_overrides=calibration_params()))
+    assert_detections_match_the_truth(ros, sim)
+
+
+def test_a_driver_like_camera_rational_lens_best_effort_is_detected(ros):
+    """The sim as a real camera driver: a rational_polynomial calibration with p != k on
+    sensor-data (best-effort) QoS; the detector subscribes best effort."""
+    lens = LENSES["rational_polynomial"]
+    sim = ros.add(SimNode(context=ros.context, parameter_overrides=[
+        Parameter("camera.distortion_model", value=lens.model),
+        Parameter("camera.distortion", value=list(lens.d)),
+        Parameter("camera.reliability", value="best_effort")]))
+    ros.add(DetectorNode(context=ros.context, parameter_overrides=[
+        *calibration_params(), Parameter("image_reliability", value="best_effort")]))
+    info = ros.wait_for_message("/camera/camera_info", CameraInfo, timeout=30,
+                                qos=camera_qos("best_effort"))
+    assert info.distortion_model == "rational_polynomial" and len(info.d) == 8
+    assert abs(info.p[0] - info.k[0]) > 10.0  # p: the optimal new camera matrix, not k
+    assert_detections_match_the_truth(ros, sim)
+
+
+def assert_detections_match_the_truth(ros, sim) -> None:
     ids = sorted(b.id for b in sim.scene.blocks)
     msg = ros.wait_for_message("/blocks/detected", BlockPoseArray, timeout=60,
                                predicate=lambda m: len(m.blocks) == len(ids))
