@@ -10,6 +10,7 @@ tells which tag squares are fully visible.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Iterator, Mapping
 
@@ -69,21 +70,26 @@ def sim_frames(seeds, density: float, noise: float | None, lenses: Mapping[str, 
 
 def _seed_frames(world: SimWorld, seed: int, lenses: Mapping[str, LensCase],
                  noise_std: float) -> Iterator[Frame]:
+    """The seed's frames. Every lens's parked frame gets the same pixel noise (a copy of the
+    world's generator), so the lens rows differ by the lens alone; the first lens's frames
+    draw it as the sim node would (``SimWorld.render``: parked, then arm over blocks)."""
     world.step(max(1, round(SETTLE_S / world.config.dt)))
     truth = {b.id: b for b in world.block_poses()}
+    start = copy.deepcopy(world.rng)
     first = None
     for name, case in lenses.items():
         camera = dataclasses.replace(world.camera, distortion=case.d,
                                      distortion_model=case.model)
-        image = render_rgb(world.client, camera, noise_std, world.rng)
+        rng = copy.deepcopy(start)
+        image = render_rgb(world.client, camera, noise_std, rng)
         visible = _fully_visible(world, camera, truth)
         yield _frame("parked", name, image, camera, truth, visible)
         for variant in case.variants:
             yield _variant_frame(name, variant, image, camera, truth, visible)
-        first = first or (name, image, camera)
-    name, parked, camera = first
+        first = first or (name, image, camera, rng)
+    name, parked, camera, rng = first
     if _arm_over_a_block(world, truth, np.random.default_rng(seed)):
-        image = render_rgb(world.client, camera, noise_std, world.rng)
+        image = render_rgb(world.client, camera, noise_std, rng)
         visible = _fully_visible(world, camera, truth)
         frame = _frame("arm over blocks", name, image, camera, truth, visible)
         yield dataclasses.replace(frame, warmup=parked)

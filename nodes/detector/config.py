@@ -43,8 +43,9 @@ class DetectorConfig:
         "seen since start or the last ~/reset are known too")
     image_reliability: str = param(
         "reliable", "QoS reliability of the image/camera_info subscriptions: reliable (the "
-        "sim's frames; best effort lost one 3.7 MB frame in three under load) or best_effort "
-        "(to hear a camera driver that publishes sensor-data QoS)")
+        "sim's default camera; best effort lost one 3.7 MB frame in three under load) or "
+        "best_effort (hears a publisher of either kind: a camera driver's sensor-data QoS, "
+        "the sim's camera.reliability best_effort)")
     image_rectified: bool = param(
         False, "false: raw images (/camera/image_raw), undistorted with camera_info's k, d "
         "and distortion_model; true: rectified images (image_proc's /camera/image_rect), "
