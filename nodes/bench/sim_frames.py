@@ -34,13 +34,16 @@ ARM_HOVER_Z = 0.10  # TCP height over the block the arm hides, m
 IN_VIEW_MARGIN_PX = 2.0
 
 
-def sim_frames(seeds, density: float, noise: float | None, lenses: Mapping[str, LensCase],
-               ideal_camera: bool = False):
+def sim_frames(seeds, density: float, noise: float | None,
+               lenses: Mapping[str, LensCase] | None = None, ideal_camera: bool = False):
     """(frames iterator, true camera pose, camera description) for the given seeds: per
-    seed a parked frame through every lens of ``lenses`` (and its variants) and one with
-    the arm over the blocks through the first; with ``ideal_camera`` one ideal pinhole (no
-    lens distortion, blur or noise) instead."""
+    seed a parked frame through every lens of ``lenses`` (default: config/sim.yaml's lens)
+    and its variants, and one with the arm over the blocks through the first; with
+    ``ideal_camera`` one ideal pinhole (no lens distortion, blur or noise) instead."""
     sim_config, camera_config, _ = load_sim_configs()
+    if lenses is None:
+        lenses = {camera_config.distortion_model: LensCase(camera_config.distortion_model,
+                                                           tuple(camera_config.distortion))}
     if ideal_camera:
         camera_config = dataclasses.replace(camera_config, distortion=NO_DISTORTION,
                                             distortion_model=PLUMB_BOB, blur_sigma_px=0.0,
