@@ -32,7 +32,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import MessageError
-from msgs_py.camera import UnsupportedLensModel
+from msgs_py.camera import CameraPose, UnsupportedLensModel
 from msgs_py.image_codecs import camera_info_to_camera, image_to_array
 from msgs_py.interface_codecs import block_set_to_msg, placement_from_msg
 from msgs_py.ros_codecs import block_set_to_markers, stamp_to_ns
@@ -89,7 +89,7 @@ class DetectorNode(Node):
             f"camera pose from {source}: position {pose.position}; images on "
             f"{self.image_topic}; {self.detector.describe()}")
 
-    def _camera_pose(self):
+    def _camera_pose(self) -> tuple[CameraPose, str]:
         pose = self.config.camera_pose_from_parameters()
         if pose is not None:
             return pose, "parameters camera_pose.*"
@@ -175,9 +175,15 @@ class DetectorNode(Node):
     def _work(self) -> None:
         while not self._stop.is_set():
             frame = self.inbox.take(TAKE_TIMEOUT_S)
-            if frame is not None and not self._stop.is_set():
+            if frame is None or self._stop.is_set():
+                continue
+            try:
                 with self._state:
                     self.process(*frame)
+            except Exception as err:  # the worker must outlive any one frame
+                self.refused += 1
+                self.get_logger().error(f"frame {frame[0]} ns: detection failed ({err!r}); "
+                                        "skipped, the next frame is tried")
 
     def process(self, stamp_ns: int, image_msg: Image, info_msg: CameraInfo) -> None:
         """Detect and publish one frame; a malformed frame is logged and skipped."""

@@ -312,3 +312,19 @@ def test_a_lens_model_it_has_no_maths_for_is_refused_once_naming_it(ros, setup):
     said = [w for w in node.recent_warnings if "kannala_brandt" in w]
     assert len(said) == 1 and "not supported" in said[0]
     assert published == [] and node.frames == 0
+
+
+def test_a_frame_whose_detection_fails_is_skipped_and_the_next_is_detected(ros, setup):
+    node, camera = setup
+    detect = node.detector.process
+    failures = []
+
+    def fail_once(*args, **kwargs):
+        if not failures:
+            failures.append(args[2])
+            raise RuntimeError("a bug in detection")
+        return detect(*args, **kwargs)
+
+    node.detector.process = fail_once
+    assert block_set_from_msg(detection(ros, camera, frame())).ids == [b.id for b in BLOCKS]
+    assert len(failures) == 1 and node.refused == 1
