@@ -16,6 +16,7 @@ import numpy as np
 from msgs_py import BlockPose, Scene
 from msgs_py.camera import EQUIDISTANT, PLUMB_BOB, RATIONAL_POLYNOMIAL, CameraIntrinsics
 from nodes.common.scenes import BLOCK_SIZE, scatter_blocks, workspace_for
+from nodes.sim.camera import LENS_COEFFICIENTS
 
 
 @dataclass
@@ -49,18 +50,14 @@ class LensCase:
     variants: tuple[str, ...] = ()
 
 
-#: One lens (config/sim.yaml's plumb_bob lens: -2.4 % at the image corners) in each model:
-#: the rational and equidistant coefficients are least-squares fits of its radial mapping
-#: out to 1.4 x the corners' radius (within 0.03 px at fx = 1400 px; the equidistant model
-#: has no tangential terms), so the rows differ only in the model's maths. The first is the
-#: one the arm-over-blocks frames and ``--compare`` use.
+#: The sim camera's lens in each model (``nodes.sim.camera.LENS_COEFFICIENTS``: one lens,
+#: the forms within 0.03 px of each other), so the rows differ only in the model's maths.
+#: The first is the one the arm-over-blocks frames and ``--compare`` use.
 LENSES = {
-    "plumb_bob": LensCase(PLUMB_BOB, (-0.10, 0.08, 0.0002, -0.00015, 0.0),
-                          (P_EQUALS_K, RECTIFIED)),
-    "rational_polynomial": LensCase(
-        RATIONAL_POLYNOMIAL, (0.4003, 0.1268, 0.0002, -0.00015, 0.0392, 0.5, 0.1, 0.0),
-        (RECTIFIED,)),
-    "equidistant": LensCase(EQUIDISTANT, (0.2321, 0.1339, -0.0003, 0.3531), (RECTIFIED,)),
+    PLUMB_BOB: LensCase(PLUMB_BOB, LENS_COEFFICIENTS[PLUMB_BOB], (P_EQUALS_K, RECTIFIED)),
+    RATIONAL_POLYNOMIAL: LensCase(RATIONAL_POLYNOMIAL, LENS_COEFFICIENTS[RATIONAL_POLYNOMIAL],
+                                  (RECTIFIED,)),
+    EQUIDISTANT: LensCase(EQUIDISTANT, LENS_COEFFICIENTS[EQUIDISTANT], (RECTIFIED,)),
 }
 
 

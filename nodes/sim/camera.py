@@ -31,9 +31,28 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from msgs_py.camera import DISTORTION_MODEL, NO_DISTORTION, CameraIntrinsics
+from msgs_py.camera import (
+    DISTORTION_MODEL,
+    EQUIDISTANT,
+    NO_DISTORTION,
+    PLUMB_BOB,
+    RATIONAL_POLYNOMIAL,
+    CameraIntrinsics,
+)
 from nodes.common.lens import distort_pixels, lens_warp, rectified_camera, undistort_pixels
 from nodes.common.transforms import quaternion_to_matrix
+
+#: The sim camera's lens (barrel, -2.4 % at the image corners; sim_assets/README.md) written
+#: in each model: the rational and equidistant forms are least-squares fits of the plumb_bob
+#: form's radial mapping out to 1.4 x the corners' radius (within 0.03 px at fx = 1400 px;
+#: the equidistant model has no tangential terms).
+LENS_COEFFICIENTS = {
+    PLUMB_BOB: (-0.10, 0.08, 0.0002, -0.00015, 0.0),
+    RATIONAL_POLYNOMIAL: (0.4003, 0.1268, 0.0002, -0.00015, 0.0392, 0.5, 0.1, 0.0),
+    EQUIDISTANT: (0.2321, 0.1339, -0.0003, 0.3531),
+}
+#: The model config/sim.yaml writes it in (as real calibrations often do: 8 coefficients).
+DEFAULT_LENS_MODEL = RATIONAL_POLYNOMIAL
 
 #: Grey level of the full well: a saturated pixel reads 255.
 FULL_SCALE_DN = 255.0

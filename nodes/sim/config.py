@@ -9,13 +9,12 @@ from pathlib import Path
 from msgs_py.camera import (
     CAMERA_RELIABILITIES,
     DISTORTION_COEFFICIENTS,
-    PLUMB_BOB,
     coefficients_reason,
 )
 from nodes.common.params import configs_from_parameters, param, read_params_file
 from nodes.common.paths import config_path
 from nodes.sim import robot_model as rm
-from nodes.sim.camera import SimCamera
+from nodes.sim.camera import DEFAULT_LENS_MODEL, LENS_COEFFICIENTS, SimCamera
 
 #: Park pose of the TCP (world, tool pointing down, closing axis along x): outside the camera's
 #: view of the workspace; the executor parks here before asking for a fresh detection.
@@ -140,10 +139,10 @@ class CameraConfig:
     blur_sigma_px: float = param(0.5, "sigma of the Gaussian blur (lens, diffraction, pixel "
                                  "area); 0 = none", unit="px")
     distortion_model: str = param(
-        PLUMB_BOB, "lens model of camera.distortion, as camera_info names it: plumb_bob "
+        DEFAULT_LENS_MODEL, "lens model of camera.distortion, as camera_info names it: plumb_bob "
         "(k1 k2 p1 p2 k3), rational_polynomial (k1 k2 p1 p2 k3 k4 k5 k6) or equidistant "
         "(fisheye: k1 k2 k3 k4)")
-    distortion: tuple = param([-0.10, 0.08, 0.0002, -0.00015, 0.0],
+    distortion: tuple = param(list(LENS_COEFFICIENTS[DEFAULT_LENS_MODEL]),
                               "lens distortion coefficients of camera.distortion_model, "
                               "OpenCV's order (published in camera_info d); all zero = ideal "
                               "pinhole")

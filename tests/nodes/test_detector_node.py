@@ -31,7 +31,7 @@ pytestmark = pytest.mark.ros
 
 # A smaller frame than the cell's (640 x 480, same ground resolution) keeps DDS traffic light.
 CAMERA = overhead_camera(width=640, height=480, focal_px=1100.0)
-#: The sim's lens (config/sim.yaml): plumb_bob k1, k2, p1, p2, k3.
+#: The sim camera's lens in its plumb_bob form (k1, k2, p1, p2, k3).
 LENS = (-0.10, 0.08, 0.0002, -0.00015, 0.0)
 BLOCKS = [BlockPose(i, 0.62 + 0.08 * (i % 3), -0.12 + 0.12 * (i // 3), 0.5 * i - 2.0)
           for i in range(6)]

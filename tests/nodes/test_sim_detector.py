@@ -36,10 +36,18 @@ def test_sim_frames_become_detections_matching_the_ground_truth(ros):
     assert_detections_match_the_truth(ros, sim)
 
 
-def test_a_driver_like_camera_rational_lens_best_effort_is_detected(ros):
-    """The sim as a real camera driver: a rational_polynomial calibration with p != k on
-    sensor-data (best-effort) QoS; the detector subscribes best effort."""
-    lens = LENSES["rational_polynomial"]
+def test_the_default_camera_publishes_a_rational_calibration_with_p_apart_from_k(ros):
+    ros.add(SimNode(context=ros.context))
+    info = ros.wait_for_message("/camera/camera_info", CameraInfo, timeout=30,
+                                qos=camera_qos("reliable"))
+    assert info.distortion_model == "rational_polynomial" and len(info.d) == 8
+    assert abs(info.p[0] - info.k[0]) > 10.0  # p: the optimal new camera matrix, not k
+
+
+def test_a_driver_like_fisheye_camera_on_best_effort_is_detected(ros):
+    """The sim as a camera driver with sensor-data (best-effort) QoS and an equidistant
+    calibration; the detector subscribes best effort."""
+    lens = LENSES["equidistant"]
     sim = ros.add(SimNode(context=ros.context, parameter_overrides=[
         Parameter("camera.distortion_model", value=lens.model),
         Parameter("camera.distortion", value=list(lens.d)),
@@ -48,8 +56,7 @@ def test_a_driver_like_camera_rational_lens_best_effort_is_detected(ros):
         *calibration_params(), Parameter("image_reliability", value="best_effort")]))
     info = ros.wait_for_message("/camera/camera_info", CameraInfo, timeout=30,
                                 qos=camera_qos("best_effort"))
-    assert info.distortion_model == "rational_polynomial" and len(info.d) == 8
-    assert abs(info.p[0] - info.k[0]) > 10.0  # p: the optimal new camera matrix, not k
+    assert info.distortion_model == "equidistant" and len(info.d) == 4
     assert_detections_match_the_truth(ros, sim)
 
 

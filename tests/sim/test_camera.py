@@ -130,9 +130,9 @@ def test_camera_info_carries_the_lens_and_p_apart_from_k():
 
 
 @pytest.mark.parametrize("overrides,named", [
-    ({"distortion_model": "rational_polynomial"}, "8 coefficients"),
+    ({"distortion_model": "plumb_bob"}, "5 coefficients"),  # the default d has 8
     ({"distortion_model": "kannala_brandt"}, "distortion_model"),
-    ({"distortion": [-0.9, 0.0, 0.0, 0.0, 0.0]}, "folds over"),
+    ({"distortion_model": "plumb_bob", "distortion": [-0.9, 0.0, 0.0, 0.0, 0.0]}, "folds over"),
     ({"rectify_alpha": 1.5}, "rectify_alpha"),
     ({"reliability": "sometimes"}, "reliability"),
 ])

@@ -14,7 +14,7 @@ from nodes.detector.synthetic import overhead_camera
 from nodes.detector.tag_geometry import BLOCK_SIZE, tag_corners_world
 
 CAMERA = overhead_camera()
-#: The sim's camera: fx 1400 px and its lens (config/sim.yaml).
+#: The sim's camera: fx 1400 px and its lens in the plumb_bob form.
 LENS_CAMERA = overhead_camera(focal_px=1400.0, distortion=(-0.10, 0.08, 0.0002, -0.00015, 0.0))
 #: The same lens in the other models (the perception benchmark's).
 OTHER_LENSES = [overhead_camera(focal_px=1400.0, distortion=LENSES[m].d,

@@ -129,5 +129,5 @@ def test_rectify_resamples_the_raw_image_into_p():
 
 
 def test_an_ideal_lens_has_p_equal_to_k():
-    camera = CameraConfig(distortion=(0.0,) * 5).model()
-    assert camera.rectified == camera.intrinsics
+    camera = CameraConfig(distortion=(0.0,) * 8).model()
+    assert camera.rectified.k == camera.intrinsics.k and not camera.rectified.distorted
