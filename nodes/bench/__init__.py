@@ -1,1 +1,1 @@
-"""Benchmarks: suites of ``densepack-bench`` that drive several node packages together."""
+"""Benchmarks: the densepack-bench suites (planners, perception) and their seeded inputs."""

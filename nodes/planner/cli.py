@@ -23,6 +23,8 @@ from nodes.common.params import configs_from_parameters, read_params_file
 from nodes.common.paths import config_path
 from nodes.planner.config import PlannerConfig
 from nodes.planner.dispatch import goal_kind, plan_goal
+from nodes.planner.geometry.context import planning_workspace
+from nodes.planner.geometry.reach import ur10e_reach
 from nodes.planner.unlabeled.config import UnlabeledConfig
 
 #: The planner node's parameter groups, as ``--params-file`` names them.
@@ -88,6 +90,17 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _note_clipped(scene) -> None:
+    """Say so when the scene's workspace reaches beyond the arm (the planner uses only the
+    part within its reach)."""
+    reach = ur10e_reach()
+    used, clipped = planning_workspace(scene, reach)
+    if clipped:
+        print(f"densepack-plan: note: workspace reaches beyond the arm ({reach.describe()}); "
+              f"planning within x {used.x_min:.2f}..{used.x_max:.2f}, y {used.y_min:.2f}.."
+              f"{used.y_max:.2f} m", file=sys.stderr)
+
+
 def main(args: Sequence[str] | None = None) -> int:
     opts = _parser().parse_args(args)
     overrides = {k: getattr(opts, k) for k in ("seed", "budget_s", "n_samples", "eps", "a1",
@@ -99,6 +112,7 @@ def main(args: Sequence[str] | None = None) -> int:
     try:
         config, unlabeled = load_planner_configs(opts.params, overrides)
         scene = load_scene(opts.scene)
+        _note_clipped(scene)
         outcome = plan_goal(scene, config, unlabeled)
     except (MessageError, ValueError, TypeError, FileNotFoundError) as err:
         print(f"densepack-plan: {err}", file=sys.stderr)

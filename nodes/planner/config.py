@@ -18,6 +18,16 @@ from msgs_py import cell
 from msgs_py.cell import GRIPPER_STROKE, GripperGeometry
 from nodes.common.params import param
 
+#: Longest time any planning budget may be given (s). A budget is a promise to answer; the
+#: largest benchmark scenes (100 blocks) plan in seconds, and an hour bounds every search.
+MAX_BUDGET_S = 3600.0
+#: Most poses sampled per single-block roadmap: the roadmap holds M x M edge matrices (per
+#: grasp, with a movable-block mask per edge), so this bounds its memory before it is built.
+MAX_SAMPLES = 2000
+#: The time parameters bounded by ``MAX_BUDGET_S``.
+SECONDS = ("budget_s", "frozen_budget_s", "improve_min_s", "improve_max_s",
+           "near_goal_budget_s")
+
 
 @dataclass(frozen=True)
 class PlannerConfig:
@@ -103,7 +113,7 @@ class PlannerConfig:
     frozen_budget_s: float = param(
         2.0, "planning time when the start leaves a block off its goal that no grasp and no "
         "push of 5 mm or more can free, even with every block that can move gone "
-        "(nodes/planner/frozen.py; a permuted grid whose hole is not its centre): such a "
+        "(nodes/planner/bounds/frozen.py; a permuted grid whose hole is not its centre): such a "
         "scene has no plan short of slides within the gaps, so the planner fails soon, "
         "naming the blocks", unit="s")
     improve_factor: float = param(
@@ -155,6 +165,13 @@ class PlannerConfig:
                              f"({self.eps_start}) <= 1")
         if self.n_samples < 0 or self.max_depth < 1 or self.clear_attempts < 1:
             raise ValueError("n_samples must be >= 0, max_depth and clear_attempts >= 1")
+        for name in SECONDS:
+            if getattr(self, name) > MAX_BUDGET_S:
+                raise ValueError(f"parameter '{name}' must be at most {MAX_BUDGET_S:g} s, got "
+                                 f"{getattr(self, name)}")
+        if self.n_samples > MAX_SAMPLES:
+            raise ValueError(f"parameter 'n_samples' must be at most {MAX_SAMPLES}, got "
+                             f"{self.n_samples}")
 
     def check_block(self, block_size: float) -> None:
         """Cross-checks that need the block size (from the scene).

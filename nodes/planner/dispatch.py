@@ -16,12 +16,14 @@ from msgs_py import BlockPose, MessageError, Scene
 from msgs_py.scene import square_half_extent
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
+from nodes.planner.geometry.context import check_scene_size
+from nodes.planner.geometry.reach import check_scene_reach
+from nodes.planner.labeled.plan_labeled import misplaced, plan_scene
 from nodes.planner.outcome import PlanOutcome
-from nodes.planner.planner import misplaced, plan_scene
-from nodes.planner.reach import check_scene_reach
 from nodes.planner.unlabeled.baseline import plan_assignment
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.planner import plan_unlabeled, unfilled
+from nodes.planner.unlabeled.plan_unlabeled import plan_unlabeled, unfilled
+from nodes.planner.unlabeled.portfolio import plan_portfolio
 from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
 
 #: A planner: (scene, config, unlabeled config, budget, plan id) -> outcome.
@@ -33,7 +35,8 @@ def _pirs(scene: Scene, config: PlannerConfig, ucfg: UnlabeledConfig, budget: Bu
     return plan_scene(scene, config, budget, plan_id)
 
 
-UNLABELED: dict[str, Planner] = {"pebble_graphs": plan_unlabeled, "assignment": plan_assignment}
+UNLABELED: dict[str, Planner] = {"portfolio": plan_portfolio, "pebble_graphs": plan_unlabeled,
+                                 "assignment": plan_assignment}
 RETRIEVAL: dict[str, Planner] = {"pebble_graphs": plan_retrieval, "pirs": _pirs}
 #: Per goal kind, the planner that takes over (within the rest of the budget) when the
 #: pebble-graph planner fails.
@@ -50,8 +53,10 @@ def goal_kind(scene: Scene) -> str:
 
 
 def check_goal(scene: Scene) -> None:
-    """Refuse a goal no planner handles, naming the field: no goal, an unlabeled goal asking
-    for ``yaw_exact``, a block or a slot out of the arm's reach."""
+    """Refuse a goal no planner handles, naming the field: no goal, more blocks or slots than
+    the planner takes, an unlabeled goal asking for ``yaw_exact``, a block or a slot out of
+    the arm's reach."""
+    check_scene_size(scene)
     kind = goal_kind(scene)
     if kind == "unlabeled" and scene.goal.yaw_exact:
         raise MessageError("yaw_exact", True, "unlabeled goals are met with yaw modulo 90 "

@@ -17,9 +17,9 @@ from msgs_py import Plan, Scene
 from msgs_py.actions import Action
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
-from nodes.planner.necessity import necessary_actions
-from nodes.planner.transfer import CostModel
-from nodes.planner.validator import validate_plan
+from nodes.planner.geometry.transfer import CostModel
+from nodes.planner.geometry.validator import validate_plan
+from nodes.planner.passes.necessity import necessary_actions
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,8 @@ from typing import Any
 OWN_INTERFACE_PACKAGES = ("densepack_interfaces",)
 #: Queue of a recording or viewing subscription: bursts (a plan, markers) must not be dropped.
 RECORD_DEPTH = 100
+#: The line between the parts of a concatenated message definition (rosbag2's).
+DEFINITION_SEPARATOR = "=" * 80
 
 
 def interface_share_dir(package: str) -> Path:
@@ -57,13 +59,36 @@ def message_definition(type_name: str) -> str:
     """The ``ros2msg`` text of ``pkg/msg/Type`` with every type it uses appended (the
     ``=====`` / ``MSG: pkg/Type`` concatenation of rosbag2 and the Foxglove app).
 
+    Each part is the installed ``.msg`` file as written, as rosbag2 stores it, where one is
+    found: the apps name a field's values by the constants written just before it (the
+    executor's ``state`` shows ``STATE_RUNNING``), and the typestore's own rendering lists
+    every constant first. A type without an installed file keeps that rendering.
+
     Raises:
         KeyError: a type the typestore does not know.
     """
     from nodes.common.messages import canonical_type_name
 
-    text, _ = typestore().generate_msgdef(canonical_type_name(type_name), ros_version=2)
-    return text
+    name = canonical_type_name(type_name)
+    text, _ = typestore().generate_msgdef(name, ros_version=2)
+    head, *used = text.split(f"{DEFINITION_SEPARATOR}\n")
+    parts = [msg_source(name) or head]
+    for part in used:
+        title, _, body = part.partition("\n")
+        source = msg_source(canonical_type_name(title.removeprefix("MSG: ")))
+        parts.append(f"{title}\n{source or body}")
+    return f"{DEFINITION_SEPARATOR}\n".join(parts)
+
+
+def msg_source(type_name: str) -> str | None:
+    """The installed ``share/<pkg>/msg/<Type>.msg`` of ``pkg/msg/Type`` (ending in one
+    newline), or None when no ament index lists the package or the file is not there."""
+    package, _, name = type_name.split("/")
+    try:
+        path = interface_share_dir(package) / "msg" / f"{name}.msg"
+    except LookupError:
+        return None
+    return path.read_text().rstrip() + "\n" if path.is_file() else None
 
 
 def is_hidden(topic: str) -> bool:

@@ -25,9 +25,10 @@ from typing import Any
 SUITES = {
     "sim": "nodes.sim.bench",
     "perception": "nodes.bench.perception",
-    "planner": "nodes.planner.bench",
+    "planner": "nodes.bench.planner",
     "cell": "nodes.tools.cell_bench",
-    "unlabeled": "nodes.planner.unlabeled_bench",
+    "unlabeled": "nodes.bench.unlabeled",
+    "reference": "nodes.bench.reference",
     "placement": "nodes.executor.placement_bench",
 }
 

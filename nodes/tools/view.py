@@ -19,10 +19,31 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import foxglove
+import rclpy
+from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus, GoalLayout
+from densepack_interfaces.msg import Plan as PlanMsg
+from foxglove import Channel, Schema
+from foxglove.channels import SceneUpdateChannel
+from geometry_msgs.msg import PoseStamped
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
+
+from msgs_py import MessageError
+from msgs_py.interface_codecs import block_set_from_msg, goal_layout_from_msg, plan_from_msg
+from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import split_ros_args
 from nodes.tools import bags
 from nodes.tools.record import Recorder, stop_on_signals
-from nodes.tools.view_layout import SCENE_TOPIC, write_layout
+from nodes.tools.view_layout import SCENE_TOPIC, STATUS_TOPIC, TCP_TOPIC, write_layout
+from nodes.tools.view_scene import (
+    block_entity,
+    goal_entity,
+    plan_entity,
+    scene_update,
+    tcp_entity,
+)
 
 #: How often the 3-D scene is sent (Hz, wall): the blocks move at the arm's pace.
 SCENE_HZ = 5.0
@@ -40,14 +61,13 @@ class ChannelConnection:
 
 class FoxgloveSink:
     """A ``Recorder`` writer that logs each message to a Foxglove channel of its topic:
-    CDR bytes untouched, the schema the full ``ros2msg`` definition from the typestore."""
+    CDR bytes untouched, the schema the full ``ros2msg`` definition of its type
+    (``bags.message_definition``)."""
 
     def __init__(self, context: Any = None) -> None:
         self.context = context
 
     def add_connection(self, topic: str, msgtype: str, **_: Any) -> ChannelConnection:
-        from foxglove import Channel, Schema
-
         schema = Schema(name=msgtype, encoding="ros2msg",
                         data=bags.message_definition(msgtype).encode())
         return ChannelConnection(topic, msgtype, Channel(
@@ -62,31 +82,26 @@ class SceneFeed:
     topics, and sends them as one ``SceneUpdate`` on ``/view/scene`` at ``SCENE_HZ``."""
 
     def __init__(self, node: Any, context: Any = None) -> None:
-        from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus, GoalLayout
-        from densepack_interfaces.msg import Plan as PlanMsg
-        from foxglove.channels import SceneUpdateChannel
-        from geometry_msgs.msg import PoseStamped
-
-        from nodes.common.qos import LATCHED, RELIABLE
-
         self.node = node
         self.entities: dict[str, Any] = {}
         self.plan: Any = None
         self.done = 0
+        self.goal: Any = None
+        #: Every block id the detections have named (seen or missing): a labeled grid's
+        #: slots are named after them.
+        self.block_ids: frozenset[int] = frozenset()
         self.channel = SceneUpdateChannel(SCENE_TOPIC, context=context)
         node.create_subscription(BlockPoseArray, "/blocks/detected", self._on_blocks, RELIABLE)
         node.create_subscription(GoalLayout, "/goal_layout", self._on_goal, LATCHED)
         node.create_subscription(PlanMsg, "/plan", self._on_plan, LATCHED)
-        node.create_subscription(ExecutorStatus, "/executor/status", self._on_status, LATCHED)
-        node.create_subscription(PoseStamped, "/tcp_pose", self._on_tcp, RELIABLE)
+        node.create_subscription(ExecutorStatus, STATUS_TOPIC, self._on_status, LATCHED)
+        node.create_subscription(PoseStamped, TCP_TOPIC, self._on_tcp, RELIABLE)
         node.create_timer(1.0 / SCENE_HZ, self.send)
 
     def _now(self) -> int:
         return self.node.get_clock().now().nanoseconds
 
     def _decode(self, decode: Any, msg: Any) -> Any:
-        from msgs_py import MessageError
-
         try:
             return decode(msg)
         except (MessageError, ValueError) as err:
@@ -94,24 +109,26 @@ class SceneFeed:
             return None
 
     def _on_blocks(self, msg: Any) -> None:
-        from msgs_py.interface_codecs import block_set_from_msg
-        from nodes.tools.view_scene import block_entity
-
         blocks = self._decode(block_set_from_msg, msg)
-        if blocks is not None:
-            self.entities["blocks"] = block_entity(blocks, self._now())
+        if blocks is None:
+            return
+        self.entities["blocks"] = block_entity(blocks, self._now())
+        known = self.block_ids | {*blocks.ids, *blocks.missing}
+        if known != self.block_ids:
+            self.block_ids = known
+            self._draw_goal()
 
     def _on_goal(self, msg: Any) -> None:
-        from msgs_py.interface_codecs import goal_layout_from_msg
-        from nodes.tools.view_scene import goal_entity
-
         layout = self._decode(goal_layout_from_msg, msg)
         if layout is not None:
-            self.entities["goal"] = goal_entity(layout, self._now())
+            self.goal = layout
+            self._draw_goal()
+
+    def _draw_goal(self) -> None:
+        if self.goal is not None:
+            self.entities["goal"] = goal_entity(self.goal, self._now(), self.block_ids)
 
     def _on_plan(self, msg: Any) -> None:
-        from msgs_py.interface_codecs import plan_from_msg
-
         plan = self._decode(plan_from_msg, msg)
         if plan is not None:
             self.plan, self.done = plan, 0
@@ -119,8 +136,6 @@ class SceneFeed:
 
     def _on_status(self, msg: Any) -> None:
         """Actions done so far leave the drawing: the arrows left are the work ahead."""
-        from densepack_interfaces.msg import ExecutorStatus
-
         if self.plan is not None and msg.plan_id == self.plan.plan_id:
             running = msg.state == ExecutorStatus.STATE_RUNNING
             done = max(0, int(msg.action_index) - (1 if running else 0))
@@ -129,19 +144,14 @@ class SceneFeed:
                 self._draw_plan()
 
     def _draw_plan(self) -> None:
-        from nodes.tools.view_scene import plan_entity
-
         self.entities["plan"] = plan_entity(self.plan, self._now(), self.done)
 
     def _on_tcp(self, msg: Any) -> None:
-        from nodes.tools.view_scene import tcp_entity
-
         p, q = msg.pose.position, msg.pose.orientation
-        self.entities["tcp"] = tcp_entity((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), self._now())
+        self.entities["tcp"] = tcp_entity((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), self._now(),
+                                          msg.header.frame_id)
 
     def send(self) -> None:
-        from nodes.tools.view_scene import scene_update
-
         if self.entities:
             self.channel.log(scene_update(self.entities.values()), log_time=self._now())
 
@@ -173,12 +183,6 @@ def main(args: Sequence[str] | None = None) -> int:
         where = write_layout(None if str(opts.write_layout) == "-" else opts.write_layout)
         print(f"densepack-view: wrote {where}", flush=True)
         return 0
-
-    import foxglove
-    import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy.parameter import Parameter
-    from rclpy.signals import SignalHandlerOptions
 
     bags.typestore()  # fail early on a missing interface package
     stop = stop_on_signals()  # Ctrl-C / SIGTERM end the loop between spins

@@ -18,8 +18,8 @@ from msgs_py import interface_codecs as ic
 from msgs_py.tasks import PlanRequest
 from nodes.common.qos import LATCHED
 from nodes.common.scenes import random_scene
+from nodes.planner.geometry.validator import validate_plan
 from nodes.planner.node import PlannerNode
-from nodes.planner.validator import validate_plan
 from nodes.tools.goal import goal_layout
 
 pytestmark = pytest.mark.ros

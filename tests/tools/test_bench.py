@@ -21,4 +21,5 @@ def test_non_finite_figures_become_null_in_json():
 
 def test_unknown_or_missing_suite_is_reported(capsys):
     assert main([]) == 2
-    assert set(SUITES) == {"sim", "perception", "planner", "cell", "unlabeled", "placement"}
+    assert set(SUITES) == {"sim", "perception", "planner", "cell", "unlabeled", "placement",
+                           "reference"}

@@ -57,6 +57,41 @@ def test_message_definitions_carry_their_dependencies_for_foxglove():
     assert serialize_message(BlockPoseArray(blocks=[BlockPose(id=2)]))  # the class exists
 
 
+def constant_names(definition: str, field: str) -> dict[int, str]:
+    """The names the Foxglove apps give ``field``'s values: the constants of one type written
+    directly before it in the message's own part of the definition (the apps' rule)."""
+    run: dict[int, str] = {}
+    run_type = None
+    for line in definition.split("=" * 80)[0].splitlines():
+        words = line.split("#")[0].replace("=", " = ").split()
+        if not words:
+            continue
+        if run_type is not None and words[0] != run_type:
+            run, run_type = {}, None
+        if len(words) >= 4 and words[2] == "=":
+            run[int(words[3])], run_type = words[1], words[0]
+        elif words[1] == field:
+            return run
+        else:
+            run = {}
+    raise AssertionError(f"no field {field} in the definition")
+
+
+def test_the_executor_state_has_its_constant_names_in_the_view():
+    """The definitions are the installed .msg files as written (rosbag2 stores those): the
+    typestore's rendering lists every constant first, and the app then shows the state as a
+    bare number."""
+    text = bags.message_definition("densepack_interfaces/msg/ExecutorStatus")
+    assert constant_names(text, "state")[ExecutorStatus.STATE_RUNNING] == "STATE_RUNNING"
+    assert len(constant_names(text, "state")) == 10
+    assert constant_names(text, "block") == {-1: "NO_BLOCK"}
+    marker = bags.message_definition("visualization_msgs/MarkerArray")
+    marker_part = marker.split("MSG: visualization_msgs/Marker\n")[1].split("=" * 80)[0]
+    assert marker_part == bags.msg_source("visualization_msgs/msg/Marker")  # a dependency's
+    assert "int32 CUBE=1" in marker_part and "MSG: std_msgs/Header" in marker  # own file too
+    assert bags.msg_source("densepack_interfaces/msg/NoSuchType") is None
+
+
 def test_qos_is_matched_on_record_and_kept_on_replay():
     assert bags.subscription_qos([LATCHED]).durability == DurabilityPolicy.TRANSIENT_LOCAL
     mixed = bags.subscription_qos([LATCHED, RELIABLE])

@@ -9,5 +9,5 @@ an arrangement, from the start arrangement to the goal.
 Pure modules, no rclpy: ``pebble_motion`` (the discrete solver), ``rpg`` (graphs, signatures),
 ``hypergraph`` (the search), ``cell_geometry`` (the work cell's sites), ``cell_transfers``
 (its transfers), ``smoothing``,
-``planner`` (scene in, validated plan out), ``retrieval``, ``baseline``.
+``plan_unlabeled`` (scene in, validated plan out), ``retrieval``, ``baseline``.
 """

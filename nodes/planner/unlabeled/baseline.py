@@ -14,15 +14,15 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from msgs_py import Goal, GoalSlot, Scene
-from nodes.planner.assembly import Assembly
+from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
-from nodes.planner.context import PlanContext
+from nodes.planner.geometry.context import PlanContext
+from nodes.planner.geometry.validator import validate_plan
+from nodes.planner.labeled.plan_labeled import plan_scene
 from nodes.planner.outcome import PlanOutcome, failed
-from nodes.planner.planner import plan_scene
 from nodes.planner.unlabeled.config import UnlabeledConfig
-from nodes.planner.unlabeled.planner import certified_bound, check_unlabeled
-from nodes.planner.validator import validate_plan
+from nodes.planner.unlabeled.plan_unlabeled import certified_bound, check_unlabeled
 
 PLANNER_NAME = "assignment_pirs"
 

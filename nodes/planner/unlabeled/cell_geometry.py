@@ -1,11 +1,12 @@
 """The work cell as a transfer space: sites are block poses, transfers are gripper actions.
 
-``CellSpace`` holds the sites of one scene (block poses, goal slots, buffers) and answers the
+``CellSites`` holds the sites of one scene (block poses, goal slots, buffers) and answers the
 pebble-graph search (``rpg.TransferSpace``, ``hypergraph.SearchSpace``): which sites
 conflict, the transfers among a set of sites with every other one occupied (the RPG's edges),
 the cheapest transfer for an actual occupancy (cached on the blocks within reach), fresh
 buffer sites out of the goal's way, what obstructs the goal. The transfers themselves, and
-the single actions they are made of, are ``cell_transfers``' (on ``nodes.planner.transfer``).
+the single actions they are made of, are ``cell_transfers``' (on
+``nodes.planner.geometry.transfer``).
 
 Site yaws are kept as given; a block standing on a site may be turned by a multiple of 90
 degrees from it (the footprint is the same), and ``cell_transfers.realize`` turns a
@@ -25,9 +26,9 @@ from msgs_py import Pose2D
 from msgs_py.cell import OVERLAP_AREA_TOL
 from msgs_py.footprint import block_corners, to_polygons
 from msgs_py.poses import poses_to_array
-from nodes.planner.context import PlanContext
-from nodes.planner.geometry import Obstacles
-from nodes.planner.transfer import grasp_checks
+from nodes.planner.geometry.context import PlanContext
+from nodes.planner.geometry.obstacles import Obstacles
+from nodes.planner.geometry.transfer import grasp_checks
 from nodes.planner.unlabeled.cell_transfers import TransferBatch, ways
 from nodes.planner.unlabeled.rpg import Site, Transfer
 
@@ -36,13 +37,15 @@ QUARTER = 0.5 * math.pi
 #: over the whole workspace, so that crowded tables still yield the free spots they have.
 BUFFER_CANDIDATES = 400
 LATTICE_STEP = 0.125
+#: Most buffer candidates on that lattice (the default 0.5 x 0.7 m workspace has 7400).
+LATTICE_MAX = 20_000
 #: How much (m) the zone is shrunk for the fast overlap test of buffer candidates.
 ZONE_SHRINK = 1e-5
 #: Smallest gap (m) between a buffer and any block.
 MIN_BUFFER_GAP = 0.001
 
 
-class CellSpace:
+class CellSites:
     """Block poses in one scene's workspace and the transfers between them.
 
     Args:
@@ -138,10 +141,7 @@ class CellSpace:
         """Buffer candidates on a fixed lattice over the workspace, with their zone flags
         (computed once per zone)."""
         if self._lattice_cache is None:
-            w, half = self.ctx.workspace, 0.5 * self.s
-            xs = np.arange(w.x_min + half, w.x_max - half + 1e-9, LATTICE_STEP * self.s)
-            ys = np.arange(w.y_min + half, w.y_max - half + 1e-9, LATTICE_STEP * self.s)
-            xy = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+            xy = self.ctx.workspace.lattice(self.s, LATTICE_STEP * self.s, LATTICE_MAX)
             yaw = np.full(len(xy), self.buffer_yaw)
             corners = block_corners(xy[:, 0], xy[:, 1], yaw, self.s)
             feet = to_polygons(corners)

@@ -9,7 +9,8 @@ A transfer is one of
 * ``push_place``: push u out to a transient p, then pick-and-place p -> v (how a block whose
   neighbours hide its faces gets out).
 
-Whether a single action is feasible and what it costs is ``nodes.planner.transfer``'s answer
+Whether a single action is feasible and what it costs is
+``nodes.planner.geometry.transfer``'s answer
 (fingers, sweeps, workspace, table, reach; ``CostModel``): the same as the labeled planner's
 roadmap. ``TransferBatch`` asks it for all pairs of a list of sites at once, every site's
 footprint an obstacle (the RPG's edges need every other site occupied), and keeps what
@@ -37,8 +38,8 @@ from msgs_py.footprint import (
     push_corners,
     to_polygons,
 )
-from nodes.planner.geometry import Obstacles, mask_to_bools, words
-from nodes.planner.transfer import grasp_checks, pick_place_between, push_checks, push_line
+from nodes.planner.geometry.obstacles import Obstacles, mask_to_bools, words
+from nodes.planner.geometry.transfer import grasp_checks, pick_place_between, push_checks, push_line
 from nodes.planner.unlabeled.rpg import Transfer
 
 QUARTER = 0.5 * math.pi

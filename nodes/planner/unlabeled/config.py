@@ -12,16 +12,16 @@ from typing import Any
 
 from nodes.common.params import param
 
-UNLABELED_METHODS = ("pebble_graphs", "assignment")
+UNLABELED_METHODS = ("portfolio", "pebble_graphs", "assignment")
 RETRIEVAL_METHODS = ("pebble_graphs", "pirs")
 
 
 @dataclass(frozen=True)
 class UnlabeledConfig:
     method: str = param(
-        "pebble_graphs", "planner for unlabeled goals: 'pebble_graphs' (rearrangement pebble "
-        "graphs and their hypergraph) or 'assignment' (min-cost matching of blocks to slots, "
-        "then the labeled pIRS planner)")
+        "portfolio", "planner for unlabeled goals: 'portfolio' (both below, the shorter plan "
+        "kept), 'pebble_graphs' (rearrangement pebble graphs and their hypergraph) or "
+        "'assignment' (min-cost matching of blocks to slots, then the labeled pIRS planner)")
     retrieval_method: str = param(
         "pebble_graphs", "planner for labeled goals that name only some blocks: "
         "'pebble_graphs' (clear the way with unlabeled pebble motion, then move the named "

@@ -2,7 +2,7 @@
 
 The paper's shelf example: to reach the can at the back, move the similar cans in front out
 of the way, wherever they fit. For each named block in turn (assembly order of their
-targets): list the ways it could get to its target ignoring the free blocks (``CellSpace.
+targets): list the ways it could get to its target ignoring the free blocks (``CellSites.
 options``: grasps, pushes, place-and-push, push-and-place) with the area each needs; take the
 one the fewest free blocks stand in; clear that area with the unlabeled hypergraph search
 (the named blocks are fixed obstacles, any free block may go anywhere out of the area);
@@ -16,11 +16,11 @@ import shapely
 
 from msgs_py import MessageError, Scene
 from msgs_py.actions import Action
-from nodes.planner.assembly import Assembly
-from nodes.planner.bound import labeled_bound
+from nodes.planner.bounds.assembly import Assembly
+from nodes.planner.bounds.bound import labeled_bound
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
-from nodes.planner.context import at_pose, nearest_goal_yaw
+from nodes.planner.geometry.context import at_pose, nearest_goal_yaw
 from nodes.planner.outcome import PlanOutcome, failed, finish_plan
 from nodes.planner.unlabeled.cell_transfers import realize, realize_all
 from nodes.planner.unlabeled.config import UnlabeledConfig
@@ -30,7 +30,7 @@ from nodes.planner.unlabeled.hypergraph import (
     SearchConfig,
     SearchFailure,
 )
-from nodes.planner.unlabeled.planner import make_space
+from nodes.planner.unlabeled.plan_unlabeled import make_space
 from nodes.planner.unlabeled.rpg import Site
 from nodes.planner.unlabeled.smoothing import n_actions, smooth
 

@@ -11,7 +11,7 @@ from msgs_py import BlockPose, Goal, GridSpec, Scene
 from msgs_py.scene import Workspace
 from nodes.planner.config import PlannerConfig
 from nodes.planner.dispatch import plan_goal
-from nodes.planner.validator import validate_plan
+from nodes.planner.geometry.validator import validate_plan
 
 BLOCK = 0.0508
 GRID = GridSpec(3, 3, (0.70, 0.0), 0.0, 0.003)

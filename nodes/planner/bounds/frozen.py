@@ -1,0 +1,85 @@
+"""Blocks that no plan can ever move: a certificate that a scene has no plan.
+
+A block moves only by a pick-and-place (the fingers of one grasp free where it stands) or a
+push (the fingertips behind one face and the sweep ahead free). Both need room around the
+block, and other blocks only ever take room away, so whether a block *could* move if every
+block that can ever move had gone away is monotone. ``frozen_blocks`` computes that closure:
+take every block that can move with the other remaining blocks as obstacles (a pick with
+some grasp, or a push of one millimetre along some face normal: any longer push sweeps a
+superset), remove all of them, repeat until none can. The blocks left can never move, in any
+plan: the first of them to move would have to do so with at least the other left blocks still
+standing where they started (and maybe more), and with only those it cannot. If one of them
+is not on its goal, the scene has no plan (with these fingers and straight pushes); the
+planner says so at once instead of searching until its budget runs out.
+
+Example: a 3x3 grid with 3 mm gaps and one empty slot that is not the centre (a ``permuted``
+scene): the blocks beside the hole that have the outside opposite it can leave, and then
+nothing else can (every block left has a block on two adjacent sides and at most one free
+side on each axis).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from msgs_py import Pose2D
+from msgs_py.footprint import face_normals
+from nodes.planner.geometry.context import PlanContext, State, at_pose
+from nodes.planner.geometry.obstacles import mask_to_int
+from nodes.planner.geometry.transfer import grasp_checks, push_checks
+
+#: Length of the probing push (m): a push of any length sweeps at least this.
+PROBE_PUSH = 5e-3
+
+
+def move_options(ctx: PlanContext, state: State) -> dict[int, list[int]]:
+    """Per block, the masks (as ints) of the other blocks each of its moves would hit: one
+    per grasp whose fingers are otherwise usable, one per push direction otherwise feasible.
+    A block can move when some mask holds no block that is still standing."""
+    ids = [b for b in ctx.ids if b in state]
+    if not ids:
+        return {}
+    obstacles = ctx.obstacles(state, exclude=(), movable=ids)
+    poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in ids])
+    grasps = grasp_checks(ctx, obstacles, poses)
+    normals = face_normals(poses[:, 2]).reshape(-1, 2)  # (K*4, 2)
+    starts = np.repeat(poses, 4, axis=0)
+    push_ok, push_hit = push_checks(ctx, obstacles, starts, normals,
+                                    np.full(len(starts), PROBE_PUSH))
+    out: dict[int, list[int]] = {}
+    for k, b in enumerate(ids):
+        own = ~(1 << ctx.bit_of[b])
+        masks = [mask_to_int(grasps.fingers_hit[k, g]) & own
+                 for g in range(2) if grasps.fingers_ok[k, g]]
+        masks += [mask_to_int(push_hit[4 * k + d]) & own
+                  for d in range(4) if push_ok[4 * k + d]]
+        out[b] = masks
+    return out
+
+
+def frozen_blocks(ctx: PlanContext, state: State) -> list[int]:
+    """The blocks of ``state`` that no sequence of actions can ever move (module docstring)."""
+    options = move_options(ctx, state)
+    standing = {b: 1 << ctx.bit_of[b] for b in options}
+    left = sum(standing.values())
+    while True:
+        free = [b for b in standing if any(not m & left for m in options[b])]
+        if not free:
+            return sorted(standing)
+        for b in free:
+            left &= ~standing.pop(b)
+
+
+#: How a failure names frozen blocks.
+FROZEN_WHY = (f"can never be freed: no grasp and no push of {PROBE_PUSH * 1e3:.0f} mm or more "
+              "moves them even with every block that can move gone")
+
+
+def frozen_off_goal(ctx: PlanContext, start: State, goals: Mapping[int, Pose2D],
+                    yaw_exact: bool) -> list[int]:
+    """The frozen blocks (``frozen_blocks``) that have a goal and are not on it."""
+    cfg = ctx.config
+    return [b for b in frozen_blocks(ctx, start) if b in goals and not at_pose(
+        start[b], goals[b], cfg.goal_tolerance_xy, cfg.goal_tolerance_yaw, yaw_exact)]

@@ -1,0 +1,302 @@
+"""pIRS and CLEAR (Algorithms 1-2 of the paper), over any geometry that speaks ``PirsSpace``.
+
+The search knows blocks (ids), poses (opaque), routes and regions (opaque); the geometry
+answers: where is a block's goal, is it there, the cheapest route of a block to a pose with
+the movable blocks it hits (the paper's PRM), which blocks to try next, where a blocking
+block may be cleared to. ``cell_pirs.CellPirs`` is the work cell; the unit tests run the
+same search on a toy space.
+
+``Pirs.run`` tries the blocks in the space's order, as the paper's top level does, and returns
+the concatenated actions and the final state, or raises ``PlanningFailure`` naming the block
+and the reason of the failure that got furthest (most blocks placed). Differences from the
+pseudocode, all deliberate:
+
+* Algorithm 1 line 7 recurses on ``O_R \\ o_r`` (the paper's typo ``o_b``, DESIGN §6).
+* A block already on its goal succeeds with an empty action list (the paper's test
+  ``pi != {}`` would reject it), and blocks ``keep`` asks to leave on their goal are placed
+  from the start (a replan late in a run: the missing few go in around them); if that
+  fails within half the budget, the search starts again with every block movable.
+* Blocks the goal does not name stay movable obstacles for the whole search.
+* CLEAR tries the space's clearing poses in turn, and after clearing its own way retries the
+  *same* pose (the path to it was just cleared) rather than a new one.
+* Among the first ``probe`` candidates, one whose route hits no movable block goes first.
+* A placement that would take the last free grasp of a movable block (``wedged``) clears
+  that block first.
+
+Deterministic for a seed (the space draws from one generator in a fixed order). It stops
+with a failure when the budget runs out or a block's clearing nests deeper than ``max_depth``.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from nodes.planner.budget import Budget, OutOfTime
+
+State = Mapping[int, Any]
+
+
+@dataclass(frozen=True)
+class Route:
+    """A path for one block: its actions, the movable blocks it hits (O_b, in order of first
+    contact), its cost, its end pose, and the region it sweeps (opaque to the search)."""
+
+    actions: tuple[Any, ...]
+    blocked: tuple[int, ...]
+    cost: float
+    end: Any
+    region: Any = None
+
+
+@dataclass(frozen=True)
+class NoRoute:
+    """Why no path exists even through movable blocks."""
+
+    reason: str
+    fixed_blockers: tuple[int, ...] = ()
+
+
+class PirsSpace(Protocol):
+    """The geometry pIRS needs."""
+
+    def at_goal(self, block: int, state: State) -> bool: ...
+
+    def goal_pose(self, block: int, state: State) -> Any:
+        """The pose to route ``block`` to for its goal (e.g. the goal yaw nearest its own)."""
+
+    def route(self, block: int, state: State, target: Any, movable: frozenset[int]
+              ) -> Route | NoRoute:
+        """Cheapest path of ``block`` to ``target``; blocks in ``movable`` may be hit."""
+
+    def order(self, blocks: Collection[int], state: State, placed: frozenset[int]
+              ) -> Iterable[int]:
+        """``blocks`` to place next, best first (may be lazy); those that must not go next
+        left out."""
+
+    def clearing_poses(self, block: int, state: State, placed: frozenset[int], region: Any
+                       ) -> list[tuple[Any, bool]]:
+        """Poses to clear ``block`` to, out of ``region``, best first, each with whether its
+        own way may be cleared recursively."""
+
+    def wedged(self, block: int, end: Any, state: State, movable: frozenset[int]
+               ) -> list[int]:
+        """Movable blocks that ``block`` standing at ``end`` would leave ungraspable."""
+
+    def join(self, a: Any, b: Any) -> Any:
+        """The union of two regions."""
+
+
+class PlanningFailure(Exception):
+    """No plan: ``block`` is the block the search could not get further with."""
+
+    def __init__(self, block: int | None, reason: str) -> None:
+        super().__init__(f"block {block}: {reason}" if block is not None else reason)
+        self.block = block
+        self.reason = reason
+
+
+@dataclass
+class PirsStats:
+    roadmaps: int = 0
+    clears: int = 0
+    backtracks: int = 0
+    placed_max: int = 0
+    failure: tuple[int, int | None, str] = (-1, None, "")  # (progress, block, reason)
+
+    def as_metrics(self) -> dict[str, float]:
+        return {"roadmaps": float(self.roadmaps), "clears": float(self.clears),
+                "backtracks": float(self.backtracks), "placed_max": float(self.placed_max)}
+
+
+@dataclass(frozen=True)
+class PirsOptions:
+    probe: int = 5  # candidates routed before choosing the next block
+    max_depth: int = 8  # nested CLEAR / re-plan recursion per block
+
+
+@dataclass
+class _Result:
+    actions: list[Any]
+    state: dict[int, Any]
+
+
+@dataclass
+class Pirs:
+    space: PirsSpace
+    goals: frozenset[int]  # blocks with a goal
+    free: frozenset[int]  # blocks without one: movable obstacles throughout
+    budget: Budget
+    options: PirsOptions = field(default_factory=PirsOptions)
+    stats: PirsStats = field(default_factory=PirsStats)
+
+    # --- top level --------------------------------------------------------------------------
+    def run(self, start: State, keep: Collection[int] = ()
+            ) -> tuple[list[Any], dict[int, Any]]:
+        """Actions from ``start`` to every block on its goal; the blocks ``keep`` (on their
+        goal) stay put if that succeeds within half the budget."""
+        keep = frozenset(keep) & self.goals
+        if keep and keep != self.goals:
+            outer, self.budget = self.budget, self.budget.share(0.5)
+            try:
+                result = self._search(dict(start), self.goals - keep, keep)
+            except OutOfTime:
+                result = None
+            self.budget = outer
+            if result is not None:
+                return result
+        try:
+            result = self._search(dict(start), self.goals, frozenset())
+        except OutOfTime:
+            _, block, reason = self.stats.failure
+            why = "stop requested" if self.budget.stopped() else "time budget exhausted"
+            raise PlanningFailure(block, f"{why} after placing at most {self.stats.placed_max} "
+                                  f"of {len(self.goals)} blocks"
+                                  + (f"; last failure: {reason}" if reason else "")) from None
+        if result is not None:
+            return result
+        _, block, reason = self.stats.failure
+        raise PlanningFailure(block, reason or "no plan found")
+
+    def _search(self, start: dict[int, Any], targets: frozenset[int], placed: frozenset[int]
+                ) -> tuple[list[Any], dict[int, Any]] | None:
+        if not targets:
+            return [], start
+        for o in self.space.order(targets, start, placed):
+            result = self.pirs(o, targets - {o}, start, placed, 0)
+            if result is not None:
+                return result.actions, result.state
+        return None
+
+    # --- helpers ----------------------------------------------------------------------------
+    def fail(self, block: int, placed: frozenset[int], reason: str) -> None:
+        if len(placed) > self.stats.failure[0]:
+            self.stats.failure = (len(placed), block, reason)
+
+    def _too_deep(self, block: int, placed: frozenset[int], depth: int, what: str) -> bool:
+        """Out of time (raises OutOfTime), or ``what`` nests deeper than ``max_depth``."""
+        self.budget.check()
+        if depth <= self.options.max_depth:
+            return False
+        self.fail(block, placed, f"{what} needed more than max_depth="
+                  f"{self.options.max_depth} nested clears")
+        return True
+
+    def route(self, block: int, state: State, target: Any, movable: frozenset[int]
+              ) -> Route | NoRoute:
+        self.budget.check()
+        self.stats.roadmaps += 1
+        return self.space.route(block, state, target, movable)
+
+    def probed(self, remaining: frozenset[int], state: dict[int, Any], placed: frozenset[int]
+               ) -> Iterator[tuple[int, Route | NoRoute | None]]:
+        """The space's candidates, but among the first ``probe`` of them one whose route is
+        already free of movable blocks goes first (it needs no clearing); the routes found
+        are handed on so they are not planned twice."""
+        space = self.space
+        rest = iter(space.order(remaining, state, placed))
+        head = list(itertools.islice(rest, self.options.probe))
+        known: dict[int, Route | NoRoute] = {}
+        for b in head:
+            if space.at_goal(b, state):
+                break
+            route = self.route(b, state, space.goal_pose(b, state), remaining - {b} | self.free)
+            known[b] = route
+            if isinstance(route, Route) and not route.blocked:
+                head.remove(b)
+                head.insert(0, b)
+                break
+        for b in itertools.chain(head, rest):
+            yield b, known.pop(b, None)
+
+    # --- Algorithm 1 ------------------------------------------------------------------------
+    def pirs(self, o: int, remaining: frozenset[int], state: dict[int, Any],
+             placed: frozenset[int], depth: int, known: Route | NoRoute | None = None
+             ) -> _Result | None:
+        """Place ``o`` on its goal, then the ``remaining`` goal blocks; None on failure."""
+        if self._too_deep(o, placed, depth, "clearing its way"):
+            return None
+        movable = remaining | self.free
+        route = self._goal_route(o, state, movable, known)
+        if isinstance(route, NoRoute):
+            self.fail(o, placed, f"no way to its goal: {route.reason}")
+            return None
+        if not route.blocked:
+            return self._placed(o, route, remaining, state, placed)
+        o_b = route.blocked[0]
+        cleared = self.clear(o_b, movable - {o_b}, state, placed, route.region, depth + 1)
+        if cleared is None:
+            self.fail(o, placed, f"block {o_b} stands in its way and could not be cleared")
+            return None
+        sub = self.pirs(o, remaining, cleared.state, placed, depth + 1)
+        if sub is None:
+            return None
+        return _Result([*cleared.actions, *sub.actions], sub.state)
+
+    def _goal_route(self, o: int, state: State, movable: frozenset[int],
+                    known: Route | NoRoute | None) -> Route | NoRoute:
+        if self.space.at_goal(o, state):
+            return Route((), (), 0.0, state[o])
+        route = known if known is not None else self.route(
+            o, state, self.space.goal_pose(o, state), movable)
+        if isinstance(route, Route) and not route.blocked:
+            wedged = self.space.wedged(o, route.end, state, movable)
+            if wedged:  # clear it while it can still be grasped
+                return Route(route.actions, (wedged[0],), route.cost, route.end, route.region)
+        return route
+
+    def _placed(self, o: int, route: Route, remaining: frozenset[int], state: dict[int, Any],
+                placed: frozenset[int]) -> _Result | None:
+        state2 = {**state, o: route.end}
+        placed2 = placed | {o}
+        self.stats.placed_max = max(self.stats.placed_max, len(placed2))
+        if not remaining:
+            return _Result(list(route.actions), state2)
+        for o_r, known in self.probed(remaining, state2, placed2):
+            sub = self.pirs(o_r, remaining - {o_r}, state2, placed2, 0, known)
+            if sub is not None:
+                return _Result([*route.actions, *sub.actions], sub.state)
+            self.stats.backtracks += 1
+        return None
+
+    # --- Algorithm 2 ------------------------------------------------------------------------
+    def clear(self, o: int, movable: frozenset[int], state: dict[int, Any],
+              placed: frozenset[int], region: Any, depth: int, target: Any = None
+              ) -> _Result | None:
+        """Move ``o`` out of the way (of ``region``), clearing its own way recursively."""
+        if self._too_deep(o, placed, depth, "clearing it"):
+            return None
+        self.stats.clears += 1
+        tries: Sequence[tuple[Any, bool]] = (
+            [(target, True)] if target is not None
+            else self.space.clearing_poses(o, state, placed, region))
+        if not tries:
+            self.fail(o, placed, "no free pose to clear it to")
+        for pose, recurse in tries:
+            route = self.route(o, state, pose, movable)
+            if isinstance(route, NoRoute):
+                self.fail(o, placed, f"cannot be cleared: {route.reason}")
+                continue
+            if not route.blocked:
+                return _Result(list(route.actions), {**state, o: route.end})
+            if recurse:
+                done = self._clear_way(o, pose, route, movable, state, placed, region, depth)
+                if done is not None:
+                    return done
+        return None
+
+    def _clear_way(self, o: int, pose: Any, route: Route, movable: frozenset[int],
+                   state: dict[int, Any], placed: frozenset[int], region: Any, depth: int
+                   ) -> _Result | None:
+        """Clear the first block on ``o``'s way to ``pose``, then move ``o`` there."""
+        o_b = route.blocked[0]
+        sub = self.clear(o_b, movable - {o_b}, state, placed,
+                         self.space.join(region, route.region), depth + 1)
+        if sub is None:
+            return None
+        again = self.clear(o, movable, sub.state, placed, region, depth + 1, target=pose)
+        if again is None:
+            return None
+        return _Result([*sub.actions, *again.actions], again.state)

@@ -1,0 +1,179 @@
+"""pIRS for labeled goals: a scene in, a validated plan out.
+
+``plan_scene`` builds the work cell's space (``cell_pirs.CellPirs``), runs pIRS (``pirs``)
+within the budget, merges two moves of a block where the plan allows (``shortcut``, then
+``rebuffer`` with buffers chosen in hindsight) and drops what the plan does without
+(``necessity``); then restarts pIRS within the improvement
+budget and keeps the shortest validated plan (``improve``), and replays the result through
+the independent validator (``outcome.finish_plan``). It returns a plan with every
+parameter, or a failure naming the block and the reason, and the certified lower bound
+either way (``bound``); it raises ``ValueError``/``MessageError`` only for input it cannot
+accept. A start that leaves a block off its goal that no grasp or push can ever free
+(``frozen``) gets only ``frozen_budget_s``, and the failure names those blocks.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from msgs_py import MessageError, Plan, Pose2D, Scene
+from msgs_py.actions import Action
+from nodes.planner.bounds.assembly import Assembly
+from nodes.planner.bounds.bound import LowerBound, labeled_bound
+from nodes.planner.bounds.frozen import FROZEN_WHY, frozen_off_goal
+from nodes.planner.budget import Budget
+from nodes.planner.config import PlannerConfig
+from nodes.planner.geometry.context import PlanContext, at_pose
+from nodes.planner.geometry.validator import validate_plan
+from nodes.planner.labeled.cell_pirs import CellPirs
+from nodes.planner.labeled.pirs import Pirs, PirsOptions, PlanningFailure
+from nodes.planner.outcome import PlanOutcome, failed, finish_plan
+from nodes.planner.passes.improve import ImproveSettings, improve
+from nodes.planner.passes.necessity import necessary_actions
+from nodes.planner.passes.rebuffer import rebuffer
+from nodes.planner.passes.reinsert import reinsert
+from nodes.planner.passes.shortcut import shortcut
+
+PLANNER_NAME = "pirs"
+
+
+def misplaced(scene: Scene, config: PlannerConfig) -> int:
+    """Blocks not already on their goal (labeled goals)."""
+    yaw_exact = scene.goal is not None and scene.goal.yaw_exact
+    return sum(not at_pose(scene.block(b).pose, goal, config.goal_tolerance_xy,
+                           config.goal_tolerance_yaw, yaw_exact)
+               for b, goal in scene.goal_assignment().items())
+
+
+def check_scene(scene: Scene) -> None:
+    """Refuse what this planner does not handle, naming the field."""
+    if scene.goal is None:
+        raise MessageError("goal", None, "the scene has no goal to plan for")
+    if not scene.goal.labeled:
+        raise MessageError("labeled", False, "pIRS plans labeled goals; unlabeled ones go to "
+                           "the pebble-graph planner")
+
+
+def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None,
+               plan_id: str | None = None) -> PlanOutcome:
+    """Plan ``scene`` (start blocks + labeled goal) within ``budget`` (default: ``budget_s``
+    from now).
+
+    Raises:
+        MessageError: no goal, or an unlabeled goal.
+        ValueError: a gripper/block combination the geometry cannot use.
+    """
+    check_scene(scene)
+    budget = budget or Budget.of(config.budget_s)
+    ctx = PlanContext.for_scene(scene, config)
+    goals = scene.goal_assignment()
+    start = {b.id: b.pose for b in scene.blocks}
+    yaw_exact = scene.goal.yaw_exact
+    assembly = Assembly(ctx, goals)
+    bound = labeled_bound(ctx, start, goals, yaw_exact, assembly)
+    metrics = {"lower_bound": float(bound.value), "misplaced": float(bound.misplaced),
+               "n_blocks": float(len(start))}
+    walled = assembly.stuck(0)
+    if walled:
+        return failed(budget, bound.value, f"block {walled[0]}: the goal layout walls in the "
+                      f"slots of blocks {walled}: in no order can they be set down or pushed "
+                      "in", walled[0], metrics)
+    frozen = frozen_off_goal(ctx, start, goals, yaw_exact)
+    if frozen:  # almost surely no plan: fail soon, saying why
+        budget = replace(budget, deadline=min(budget.deadline, time.monotonic()
+                                              + config.frozen_budget_s))
+        metrics["frozen"] = float(len(frozen))
+    attempt = _Attempt(scene, config, ctx, assembly, bound, start)
+    try:
+        actions = attempt.solve(np.random.default_rng(config.seed), 0.0, budget, metrics)
+    except PlanningFailure as failure:
+        why = str(failure)
+        if frozen:  # the real cause first: the short budget was this scene's own
+            why = (f"blocks {frozen} are off their goal and {FROZEN_WHY}, so the search got "
+                   f"only frozen_budget_s = {config.frozen_budget_s:g} s; it ended with {why}")
+        return failed(budget, bound.value, why, failure.block, metrics)
+    before = len(actions)
+    actions = necessary_actions(scene, attempt.params, actions)
+    metrics["unneeded_dropped"] = float(before - len(actions))
+    first_s = budget.elapsed()
+    settings = ImproveSettings(config.improve_factor, config.improve_min_s, config.improve_max_s)
+    better = improve(actions, attempt.restart, attempt.valid,
+                     budget.capped(settings.seconds(first_s)), bound.value, first_s)
+    metrics.update(better.metrics(len(actions)))
+    metrics["first_solve_s"] = first_s
+    return finish_plan(scene, config, better.best, PLANNER_NAME, budget, bound.value, metrics,
+                       plan_id, pruned=True)
+
+
+@dataclass
+class _Attempt:
+    """One pIRS run on a scene: the first with the configured seed, restarts with their own
+    generator stream and order jitter (``improve``)."""
+
+    scene: Scene
+    config: PlannerConfig
+    ctx: PlanContext
+    assembly: Assembly
+    bound: LowerBound
+    start: dict[int, Pose2D]
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return self.config.to_params(self.scene.block_size)
+
+    def solve(self, rng: np.random.Generator, jitter: float, budget: Budget,
+              metrics: dict[str, float]) -> list[Action]:
+        """pIRS and the shortcut and rebuffer passes; raises PlanningFailure (search figures in
+        ``metrics`` either way)."""
+        goals = self.scene.goal_assignment()
+        space = CellPirs(self.ctx, goals, self.scene.goal.yaw_exact, rng, self.assembly,
+                         self.bound.relaxation, jitter)
+        search = Pirs(space, frozenset(goals), frozenset(self.start) - frozenset(goals),
+                      budget, PirsOptions(self.config.probe, self.config.max_depth))
+        keep = _kept(space, self.assembly, self.bound, self.start)
+        try:
+            actions, _ = search.run(self.start, keep)
+        finally:
+            metrics.update(search.stats.as_metrics())
+        if self.config.shortcut:
+            before = len(actions)
+            actions = shortcut(self.ctx, self.start, actions)
+            metrics["shortcut_saved"] = float(before - len(actions))
+        if self.config.rebuffer:
+            before = len(actions)
+            actions = rebuffer(self.ctx, self.start, actions)
+            metrics["rebuffer_saved"] = float(before - len(actions))
+        if self.config.reinsert and not self.scene.goal.yaw_exact:
+            before = len(actions)
+            actions = reinsert(self.ctx, self.start, actions, self.valid,
+                               set(self.scene.goal_assignment()))
+            metrics["reinsert_saved"] = float(before - len(actions))
+        return actions
+
+    def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
+        """Restart ``k``: pruned actions, or None if it found no plan."""
+        rng = np.random.default_rng([self.config.seed, k])
+        try:
+            actions = self.solve(rng, jitter, budget, {})
+        except PlanningFailure:
+            return None
+        return necessary_actions(self.scene, self.params, actions)
+
+    def valid(self, actions: list[Action]) -> bool:
+        return validate_plan(Plan(actions=tuple(actions), planner=PLANNER_NAME,
+                                  params=self.params, seed=self.config.seed,
+                                  scene=self.scene)).ok
+
+
+def _kept(space: CellPirs, assembly: Assembly, bound: LowerBound, start) -> frozenset[int]:
+    """Blocks on their goal that the search first tries to leave there: those the bound's
+    best relaxed plan keeps, else as many as leave every other slot enterable."""
+    done = frozenset(b for b in space.goals if space.at_goal(b, start))
+    if bound.exact:
+        return done & bound.keep
+    kept = assembly.keepable(assembly.mask(done))
+    return frozenset(b for b in done if kept & assembly.bit[b])
