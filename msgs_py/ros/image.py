@@ -13,10 +13,11 @@ import cv2
 import numpy as np
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
-from msgs_py.camera import DISTORTION_MODEL, NO_DISTORTION, CameraIntrinsics
+from msgs_py.camera import DISTORTION_COEFFICIENTS, CameraIntrinsics, UnsupportedLensModel
 from msgs_py.errors import MessageError
 from msgs_py.ros.stamps import ns_to_stamp
 
+IDENTITY_3X3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 #: 8-bit encodings we read, with their channel counts.
 CHANNELS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}
 
@@ -115,43 +116,97 @@ def compressed_image_to_array(msg: CompressedImage) -> np.ndarray:
 
 
 def camera_info_to_intrinsics(msg: CameraInfo) -> CameraIntrinsics:
-    """Intrinsics from ``k`` and the ``plumb_bob`` distortion ``d`` (k1, k2, p1, p2, k3).
+    """The raw image's camera: ``k``, and ``d`` of ``distortion_model`` (plumb_bob: 5
+    coefficients, rational_polynomial: 8, equidistant: 4).
 
-    An empty ``d`` means an ideal lens, whatever the model's name; non-zero coefficients
-    of any other model are refused rather than silently ignored.
+    An empty or all-zero ``d`` is an ideal lens, whatever the model's name (as ROS's
+    image_geometry reads it); ``p`` and ``r`` describe the rectified image and are not read
+    (``camera_info_to_rectified``).
 
     Raises:
+        UnsupportedLensModel: non-zero ``d`` of a model densepack has no maths for.
         MessageError: zero size, a non-positive or non-finite focal length, a malformed
-            ``k``, a ``d`` of another model or length, or one that folds the image over.
+            ``k``, a ``d`` of the wrong length, one that folds the image over, binning or
+            a region of interest (not supported).
     """
     k = [float(v) for v in msg.k]
     if len(k) != 9 or k[1] != 0.0 or k[3] != 0.0 or k[6:] != [0.0, 0.0, 1.0]:
         raise MessageError("camera_info.k", k, "expected [fx, 0, cx, 0, fy, cy, 0, 0, 1]")
-    d = [float(v) for v in msg.d]
+    _check_full_frame(msg)
+    d = tuple(float(v) for v in msg.d)
     if not any(d):
-        d = list(NO_DISTORTION)
-    elif msg.distortion_model != DISTORTION_MODEL:
-        raise MessageError("camera_info.distortion_model", msg.distortion_model,
-                           f"only {DISTORTION_MODEL} distortion is supported")
+        return CameraIntrinsics(int(msg.width), int(msg.height), k[0], k[4], k[2], k[5])
+    if msg.distortion_model not in DISTORTION_COEFFICIENTS:
+        raise UnsupportedLensModel(msg.distortion_model)
+    return CameraIntrinsics(int(msg.width), int(msg.height), k[0], k[4], k[2], k[5], d,
+                            msg.distortion_model)
+
+
+def camera_info_to_rectified(msg: CameraInfo) -> CameraIntrinsics:
+    """The rectified image's camera (image_proc's ``image_rect``): ``p``'s fx, fy, cx, cy and
+    an ideal lens (the rectification already undid ``d``: using ``k`` and ``d`` again would
+    correct twice).
+
+    Raises:
+        MessageError: ``p`` unset or malformed, a stereo pair's ``p`` (Tx, Ty not zero) or
+            ``r`` (not the identity: the rectified image would be turned), zero size,
+            binning or a region of interest.
+    """
+    p = [float(v) for v in msg.p]
+    if not any(p):
+        raise MessageError("camera_info.p", p, "p not set (an uncalibrated camera?)")
+    if len(p) != 12 or p[1] != 0.0 or p[4] != 0.0 or p[8:] != [0.0, 0.0, 1.0, 0.0]:
+        raise MessageError("camera_info.p", p, "expected [fx', 0, cx', Tx, 0, fy', cy', Ty, "
+                           "0, 0, 1, 0]")
+    if not (p[0] > 0.0 and p[5] > 0.0):
+        raise MessageError("camera_info.p", p, "fx' and fy' must be > 0")
+    if p[3] != 0.0 or p[7] != 0.0:
+        raise MessageError("camera_info.p", p, "Tx, Ty not zero: the second camera of a "
+                           "stereo pair; densepack reads a monocular camera")
+    r = [float(v) for v in msg.r]
+    if len(r) != 9 or any(abs(a - b) > 1e-9 for a, b in zip(r, IDENTITY_3X3, strict=True)):
+        raise MessageError("camera_info.r", r, "expected the identity: a stereo "
+                           "rectification turns the image, densepack reads a monocular camera")
+    _check_full_frame(msg)
+    return CameraIntrinsics(int(msg.width), int(msg.height), p[0], p[5], p[2], p[6])
+
+
+def camera_info_to_camera(msg: CameraInfo, rectified: bool) -> CameraIntrinsics:
+    """The camera an image of this camera_info was taken with: the raw camera (``k``, ``d``)
+    for ``image_raw``, the rectified one (``p``, no distortion) for ``image_rect``."""
+    return camera_info_to_rectified(msg) if rectified else camera_info_to_intrinsics(msg)
+
+
+def _check_full_frame(msg: CameraInfo) -> None:
     if msg.width == 0 or msg.height == 0:
         raise MessageError("camera_info.width x height", (msg.width, msg.height),
                            "image size not set")
-    return CameraIntrinsics(int(msg.width), int(msg.height), k[0], k[4], k[2], k[5], tuple(d))
+    if msg.binning_x > 1 or msg.binning_y > 1:
+        raise MessageError("camera_info.binning_x x binning_y", (msg.binning_x, msg.binning_y),
+                           "binned images are not supported")
+    roi = msg.roi
+    if (roi.x_offset, roi.y_offset) != (0, 0) or roi.width not in (0, msg.width) or (
+            roi.height not in (0, msg.height)):
+        raise MessageError("camera_info.roi", (roi.x_offset, roi.y_offset, roi.width,
+                                               roi.height), "a region of interest is not "
+                           "supported (full frames only)")
 
 
 def intrinsics_to_camera_info(intrinsics: CameraIntrinsics, stamp_ns: int,
-                              frame_id: str = "camera_optical_frame") -> CameraInfo:
-    """``CameraInfo`` as the contract fixes it: k and p from the intrinsics (p = k: the
-    detector works on the raw image, no rectified one is published), d = the plumb_bob
-    coefficients."""
+                              frame_id: str = "camera_optical_frame",
+                              rectified: CameraIntrinsics | None = None) -> CameraInfo:
+    """``CameraInfo`` of a monocular camera: ``k``, ``d`` and ``distortion_model`` from the
+    intrinsics, ``r`` the identity, ``p`` the ``rectified`` camera (the one of
+    ``image_rect``; default ``k``, right for an ideal lens only)."""
     i = intrinsics
+    rect = intrinsics if rectified is None else rectified
     msg = CameraInfo()
     msg.header.stamp = ns_to_stamp(stamp_ns)
     msg.header.frame_id = frame_id
     msg.width, msg.height = i.width, i.height
-    msg.distortion_model = DISTORTION_MODEL
+    msg.distortion_model = i.distortion_model
     msg.d = [float(v) for v in i.d]
     msg.k = [i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0]
-    msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-    msg.p = [i.fx, 0.0, i.cx, 0.0, 0.0, i.fy, i.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+    msg.r = list(IDENTITY_3X3)
+    msg.p = [rect.fx, 0.0, rect.cx, 0.0, 0.0, rect.fy, rect.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
     return msg

@@ -41,10 +41,15 @@ CAMERA = QoSProfile(
 )
 
 
-def camera_subscription_qos(reliability: str) -> QoSProfile:
-    """``CAMERA`` or, for ``best_effort``, the same history with best-effort delivery."""
+def camera_qos(reliability: str) -> QoSProfile:
+    """``CAMERA`` or, for ``best_effort`` (a camera driver's sensor-data QoS), the same
+    history with best-effort delivery: for publishers and subscribers alike. A reliable
+    subscriber never matches a best-effort publisher; a best-effort one matches both."""
     if reliability == "best_effort":
         return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2,
                           reliability=ReliabilityPolicy.BEST_EFFORT,
                           durability=DurabilityPolicy.VOLATILE)
+    if reliability != "reliable":
+        raise ValueError(f"camera QoS reliability '{reliability}' is not reliable or "
+                         "best_effort")
     return CAMERA

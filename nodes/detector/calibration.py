@@ -2,8 +2,10 @@
 
 Every tag corner of a block at a known pose is a known world point (z = block size). All
 corners of all frames go into one PnP problem (planar IPPE for a start, then
-Levenberg-Marquardt on the reprojection error, through the lens's plumb_bob distortion of
-``intrinsics.d``: the corners are used where they are measured). A *group* of corners is
+Levenberg-Marquardt on the reprojection error, through the lens's distortion: OpenCV's
+standard model takes plumb_bob and rational_polynomial ``d`` as they are and the corners
+where they are measured; an equidistant (fisheye) lens's corners are undistorted to ideal
+pixels first, OpenCV's PnP knowing no fisheye). A *group* of corners is
 one tag at one known pose: a tag of a board (``calibrate_camera``), or the one block the
 arm sets down at several places (``calibrate_views`` with one ``placement`` per place).
 Groups that disagree with the consensus (a block not where the list says) are dropped and
@@ -22,7 +24,8 @@ import cv2
 import numpy as np
 
 from msgs_py import BlockPose
-from msgs_py.camera import CameraIntrinsics
+from msgs_py.camera import EQUIDISTANT, CameraIntrinsics
+from nodes.common.lens import undistort_pixels
 from nodes.detector.camera_model import CameraModel, camera_matrix, dist_coeffs
 from nodes.detector.tag_geometry import BLOCK_SIZE, TAG_SIZE, tag_corners_world
 from nodes.detector.tags import TagDetection
@@ -152,7 +155,7 @@ def calibrate_views(views: Iterable[View], intrinsics: CameraIntrinsics,
             continue
         break
     camera = CameraModel.from_rvec_tvec(intrinsics, rvec, tvec)
-    sigma_p, sigma_r = _uncertainty(world, intrinsics, rvec, tvec, residual)
+    sigma_p, sigma_r = _uncertainty(world, image, intrinsics, rvec, tvec)
     return CalibrationResult(
         camera=camera, rms_px=float(np.sqrt(np.mean(residual**2))),
         max_px=float(residual.max()), per_tag_px=per_tag, n_frames=n_frames,
@@ -160,10 +163,18 @@ def calibrate_views(views: Iterable[View], intrinsics: CameraIntrinsics,
         rotation_sigma_deg=sigma_r, unknown_tags=tuple(unknown), group_name=group_by)
 
 
+def _pnp_problem(image: np.ndarray, intrinsics: CameraIntrinsics):
+    """(image points, camera matrix, distortion vector) OpenCV's PnP can take: the measured
+    corners with the standard model's ``d``, or a fisheye camera's corners as ideal pixels."""
+    if intrinsics.distorted and intrinsics.distortion_model == EQUIDISTANT:
+        return undistort_pixels(image, intrinsics), camera_matrix(intrinsics), None
+    return image, camera_matrix(intrinsics), dist_coeffs(intrinsics)
+
+
 def _solve(world: np.ndarray, image: np.ndarray, intrinsics: CameraIntrinsics):
-    k, dist = camera_matrix(intrinsics), dist_coeffs(intrinsics)
+    points, k, dist = _pnp_problem(image, intrinsics)
     obj = world.reshape(-1, 1, 3).astype(np.float64)
-    img = image.reshape(-1, 1, 2).astype(np.float64)
+    img = points.reshape(-1, 1, 2).astype(np.float64)
     planar = np.ptp(world[:, 2]) < 1e-9
     ok, rvec, tvec = cv2.solvePnP(obj, img, k, dist,
                                   flags=cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP)
@@ -175,15 +186,18 @@ def _solve(world: np.ndarray, image: np.ndarray, intrinsics: CameraIntrinsics):
 
 
 def _residuals(world, image, intrinsics, rvec, tvec) -> np.ndarray:
-    projected, _ = cv2.projectPoints(world.astype(np.float64), rvec, tvec,
-                                     camera_matrix(intrinsics), dist_coeffs(intrinsics))
-    return np.linalg.norm(projected.reshape(-1, 2) - image, axis=1)
+    """Per corner, the distance (px) between where it was measured and where the solved
+    camera images it through its lens."""
+    projected = CameraModel.from_rvec_tvec(intrinsics, rvec, tvec).project(world)
+    return np.linalg.norm(projected - image, axis=1)
 
 
-def _uncertainty(world, intrinsics, rvec, tvec, residual):
-    """1-sigma camera position (m, world axes) and rotation (deg) from J^T J."""
-    _, jac = cv2.projectPoints(world.astype(np.float64), rvec, tvec,
-                               camera_matrix(intrinsics), dist_coeffs(intrinsics))
+def _uncertainty(world, image, intrinsics, rvec, tvec):
+    """1-sigma camera position (m, world axes) and rotation (deg) from J^T J of the PnP
+    problem as OpenCV solved it."""
+    points, k, dist = _pnp_problem(image, intrinsics)
+    projected, jac = cv2.projectPoints(world.astype(np.float64), rvec, tvec, k, dist)
+    residual = np.linalg.norm(projected.reshape(-1, 2) - points, axis=1)
     j = jac[:, :6]  # d(u, v) / d(rvec, tvec)
     dof = max(2 * len(world) - 6, 1)
     sigma2 = float(np.sum(residual**2)) / dof

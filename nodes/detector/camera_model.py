@@ -2,10 +2,12 @@
 
 The camera pose is that of ``camera_optical_frame`` in ``world`` (z forward, x right,
 y down); intrinsics follow OpenCV (pixel centres at integer coordinates), with the lens's
-plumb_bob distortion ``intrinsics.d``: ``project`` gives where a point is *imaged* (distorted
+distortion ``intrinsics.d`` of ``intrinsics.distortion_model`` (plumb_bob,
+rational_polynomial or equidistant): ``project`` gives where a point is *imaged* (distorted
 pixels, what the detector measures), ``undistort`` maps measured pixels to the ideal
 pinhole pixels of the same camera, and ``rays`` / ``intersect_plane_z`` take measured
-pixels (they undistort first). With ``d`` all zero every step is the pinhole's. The calibration
+pixels (they undistort first). With ``d`` all zero every step is the pinhole's; a model of
+a rectified image (camera_info's ``p``) is such a pinhole. The calibration
 file is ROS ``--params-file`` YAML with ``camera_pose.position`` and
 ``camera_pose.orientation_xyzw``, read by the detector and written by densepack-calibrate.
 """
@@ -20,15 +22,26 @@ import cv2
 import numpy as np
 
 from msgs_py import MessageError
-from msgs_py.camera import CameraIntrinsics, CameraPose
+from msgs_py.camera import EQUIDISTANT, CameraIntrinsics, CameraPose
 from nodes.common.lens import camera_matrix, distort_normalized, undistort_pixels
 from nodes.common.params import read_params_file
 from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
 
 
 def dist_coeffs(intrinsics: CameraIntrinsics) -> np.ndarray | None:
-    """OpenCV's distortion vector (k1, k2, p1, p2, k3), or None for an ideal lens."""
-    return np.array(intrinsics.d, dtype=float) if intrinsics.distorted else None
+    """The distortion vector of OpenCV's standard model (plumb_bob: 5 values,
+    rational_polynomial: 8), or None for an ideal lens.
+
+    Raises:
+        ValueError: a fisheye (equidistant) lens, which OpenCV's standard functions
+            (projectPoints, solvePnP) cannot model: undistort its pixels first.
+    """
+    if not intrinsics.distorted:
+        return None
+    if intrinsics.distortion_model == EQUIDISTANT:
+        raise ValueError("an equidistant (fisheye) lens has no standard-model distortion "
+                         "vector; undistort its pixels first")
+    return np.array(intrinsics.d, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -55,11 +68,6 @@ class CameraModel:
     @property
     def k(self) -> np.ndarray:
         return camera_matrix(self.intrinsics)
-
-    @property
-    def dist(self) -> np.ndarray | None:
-        """OpenCV's distortion vector, None for an ideal lens."""
-        return dist_coeffs(self.intrinsics)
 
     def pinhole(self) -> CameraModel:
         """This camera with an ideal lens (what ``undistort``'s pixels are pixels of)."""
@@ -91,8 +99,7 @@ class CameraModel:
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.where(pc[:, 2] > 0.0, pc[:, 2], np.nan)
             xy = pc[:, :2] / z[:, None]
-        if self.intrinsics.distorted:
-            xy = distort_normalized(xy, self.intrinsics.d)
+        xy = distort_normalized(xy, self.intrinsics)
         i = self.intrinsics
         return np.column_stack([i.fx * xy[:, 0] + i.cx, i.fy * xy[:, 1] + i.cy])
 
@@ -116,7 +123,6 @@ class CameraModel:
             s = (z - self.position[2]) / d[:, 2]
         s = np.where(s > 0.0, s, np.nan)
         return self.position + s[:, None] * d
-
 
     def table_view(self, z: float) -> np.ndarray:
         """(4, 2) x, y where the image's corners look at the plane of height ``z`` (m)."""

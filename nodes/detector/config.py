@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from msgs_py import MessageError
-from msgs_py.camera import CameraPose
+from msgs_py.camera import CAMERA_RELIABILITIES, CameraPose
 from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
 from nodes.common.params import param
 from nodes.detector.estimate import ESTIMATORS
@@ -43,8 +43,13 @@ class DetectorConfig:
         "seen since start or the last ~/reset are known too")
     image_reliability: str = param(
         "reliable", "QoS reliability of the image/camera_info subscriptions: reliable (the "
-        "sim's frames; best effort lost one 3.7 MB frame in three under load) or best_effort "
-        "(to hear a camera driver that publishes sensor-data QoS)")
+        "sim's default camera; best effort lost one 3.7 MB frame in three under load) or "
+        "best_effort (hears a publisher of either kind: a camera driver's sensor-data QoS, "
+        "the sim's camera.reliability best_effort)")
+    image_rectified: bool = param(
+        False, "false: raw images (/camera/image_raw), undistorted with camera_info's k, d "
+        "and distortion_model; true: rectified images (image_proc's /camera/image_rect), "
+        "imaged by camera_info's p with no distortion")
     block_size: float = param(BLOCK_SIZE, "cube side; tags lie in the plane z = block_size",
                               unit="m")
     tag_size: float = param(TAG_SIZE, "side of the tag's black square", unit="m")
@@ -69,9 +74,9 @@ class DetectorConfig:
         if self.pose_method not in ESTIMATORS:
             raise ValueError(f"parameter 'pose_method': '{self.pose_method}' is not one of "
                              f"{sorted(ESTIMATORS)}")
-        if self.image_reliability not in ("reliable", "best_effort"):
+        if self.image_reliability not in CAMERA_RELIABILITIES:
             raise ValueError(f"parameter 'image_reliability': '{self.image_reliability}' is "
-                             "not reliable or best_effort")
+                             f"not one of {list(CAMERA_RELIABILITIES)}")
         if not self.decimate >= 1.0:
             raise ValueError(f"parameter 'decimate': must be >= 1, got {self.decimate}")
         if not self.max_reprojection_px > 0.0:

@@ -9,8 +9,9 @@
   does it; x, y are the tag centre, theta the yaw of its x axis. Kept to compare against.
 
 Both take the corners as measured on the (distorted) image and undistort them with the
-camera's plumb_bob ``d`` first (``CameraModel.rays`` / ``undistort``): the tag's edges are
-fitted where they are imaged, and only the four corners are mapped to the ideal pinhole.
+camera's lens first (``CameraModel.rays`` / ``undistort``: ``d`` of its distortion model):
+the tag's edges are fitted where they are imaged, and only the four corners are mapped to
+the ideal pinhole.
 Both report the RMS reprojection error (px) of the model they fitted, on the measured
 image; with ``plane`` it also grows when a tag is not where a resting block's tag can be
 (a lifted or tipped block).
@@ -79,9 +80,9 @@ def estimate_pnp(camera: CameraModel, corners: np.ndarray,
     if not ok:
         return PoseEstimate(math.nan, math.nan, math.nan, math.inf)
     rvec, tvec = cv2.solvePnPRefineLM(object_pts, image_pts, camera.k, None, rvec, tvec)
-    projected, _ = cv2.projectPoints(object_pts, rvec, tvec, camera.k, camera.dist)
-    error = _rms(projected.reshape(4, 2), corners)
     r_ct, _ = cv2.Rodrigues(rvec)
+    tag_cam = object_pts @ r_ct.T + tvec.reshape(3)
+    error = _rms(camera.project(camera.position + tag_cam @ camera.rotation.T), corners)
     r_wt = camera.rotation @ r_ct
     centre = camera.position + camera.rotation @ tvec.reshape(3)
     theta = math.atan2(r_wt[1, 0], r_wt[0, 0])

@@ -1,19 +1,26 @@
 """``densepack-detector``: overhead camera images -> block poses on ``/blocks/detected``.
 
-Subscribes ``/camera/image_raw`` (sensor_msgs/Image, rgb8) and ``/camera/camera_info``
-(sensor_msgs/CameraInfo), pairs them by identical stamp, detects the 36h11 tags and
-publishes one ``densepack_interfaces/BlockPoseArray`` per frame (msgs_py ``BlockSet``: the seen
-blocks' poses in ``world``, stamp = image stamp, the known blocks not seen in ``missing_ids``)
-and the same as a MarkerArray for viewers on ``/blocks/detected/markers``. A bad
-frame (empty, wrongly encoded, size mismatch, no or bad camera_info) is logged and skipped:
-nothing is published for it, so no old poses ever go out under a new stamp.
+Subscribes ``/camera/image_raw`` (or, with ``image_rectified``, image_proc's
+``/camera/image_rect``) and ``/camera/camera_info``, pairs them by identical stamp, detects
+the 36h11 tags and publishes one ``densepack_interfaces/BlockPoseArray`` per frame processed
+(msgs_py ``BlockSet``: the seen blocks' poses in ``world``, stamp = image stamp, the known
+blocks not seen in ``missing_ids``) and the same as a MarkerArray for viewers on
+``/blocks/detected/markers``.
+
+A camera streams; detection runs on a worker thread of its own and always takes the newest
+complete frame, so frames that come faster than it can process are skipped (counted and
+logged as counts, never a warning per frame) and none is older than one already processed.
+A bad frame (empty, wrongly encoded, size mismatch, bad camera_info, a lens model without
+maths here) is logged and skipped: nothing is published for it, so no old poses ever go out
+under a new stamp.
 """
 
 from __future__ import annotations
 
 import sys
+import threading
 import time
-from collections import deque
+from collections import Counter, deque
 
 from densepack_interfaces.msg import BlockPoseArray, Placement
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
@@ -25,90 +32,118 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from msgs_py import MessageError
+from msgs_py.camera import CameraPose, UnsupportedLensModel
 from msgs_py.ros import block_set_to_markers, block_set_to_msg, placement_from_msg, stamp_to_ns
-from msgs_py.ros.image import camera_info_to_intrinsics, image_to_array
+from msgs_py.ros.image import camera_info_to_camera, image_to_array
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
-from nodes.common.qos import RELIABLE, camera_subscription_qos
+from nodes.common.qos import RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.handeye import HandEye
 from nodes.detector.pipeline import BlockDetector
-from nodes.detector.sync import StampPairer
+from nodes.detector.sync import Drop, FrameInbox, PairResult
+from nodes.detector.warning_kinds import WarningKind
 
 WATCHDOG_PERIOD_S = 1.0
 NO_FRAME_WARN_S = 2.0  # images arriving but no complete frame for this long -> warn
 WARN_EVERY_S = 5.0  # the same kind of warning at most this often
+COUNTS_LOG_S = 10.0  # skipped frames are summed up in the log at most this often
+TAKE_TIMEOUT_S = 0.5  # the worker looks at its stop flag at least this often
+#: Drops worth a warning (something is wrong); the others are a stream's normal losses.
+WARNED_DROPS = {Drop.STALE: WarningKind.STALE_FRAME, Drop.UNPAIRED: WarningKind.UNPAIRED}
+IMAGE_TOPICS = {False: "/camera/image_raw", True: "/camera/image_rect"}
 
 
 class DetectorNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("detector", **kwargs)
         self.config = declare_config(self, DetectorConfig)
-        pose = self.config.camera_pose_from_parameters()
-        source = "parameters camera_pose.*"
-        if pose is None:
-            path = config_path(self.config.calibration_file)
-            try:
-                pose = load_camera_pose(path)
-            except (OSError, MessageError) as err:
-                raise ValueError(
-                    f"no camera pose: camera_pose.* parameters unset and {path} unusable "
-                    f"({err}); run densepack-calibrate or pass --params-file "
-                    "config/camera_calibration.yaml") from None
-            source = str(path)
+        pose, source = self._camera_pose()
         self.detector = BlockDetector(self.config, pose)
-        self.pairer = StampPairer()
+        self.inbox = FrameInbox()
         self.recent_warnings: deque[str] = deque(maxlen=100)
-        self._last_warned: dict[str, float] = {}
-        self.frames = 0
+        self._last_warned: dict[WarningKind, float] = {}
+        self._refused_models: set[str] = set()
+        self.frames = 0  # frames processed and published
+        self.refused = 0  # frames skipped as malformed
+        self._logged: Counter[Drop] = Counter()  # the drop counts as last logged
+        self._last_counts_log = time.monotonic()
         self._last_image_wall = 0.0
         self._last_frame_wall = time.monotonic()
-        group = MutuallyExclusiveCallbackGroup()
-        self.publisher = self.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
-        self.markers = self.create_publisher(MarkerArray, "/blocks/detected/markers", RELIABLE)
-        camera_qos = camera_subscription_qos(self.config.image_reliability)
-        self.create_subscription(Image, "/camera/image_raw", self.on_image, camera_qos,
-                                 callback_group=group)
-        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, camera_qos,
-                                 callback_group=group)
-        self.create_service(Trigger, "~/reset", self.on_reset, callback_group=group)
+        self._state = threading.Lock()  # the detector and hand-eye state: worker vs services
+        self._forget = threading.Event()  # the clock went back: forget the blocks seen
         self.hand_eye: HandEye | None = None  # made with the first frame (the camera's view)
-        if self.config.correct_from_placements:
-            self.create_subscription(Placement, "/executor/placements", self.on_placement,
-                                     RELIABLE, callback_group=group)
-        self.create_timer(WATCHDOG_PERIOD_S, self.watchdog, callback_group=group)
+        self._make_interfaces()
         # A sim reset restarts simulated time: frames then carry older stamps, yet are new.
         self._clock_jumped = False
         self._jump_handle = self.get_clock().create_jump_callback(
             JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1),
                           on_clock_change=False), post_callback=self._on_clock_jump)
+        self._stop = threading.Event()
+        self._worker = threading.Thread(target=self._work, name="detector-worker", daemon=True)
+        self._worker.start()
         self.get_logger().info(
-            f"camera pose from {source}: position {pose.position}; "
-            f"{self.detector.describe()}")
+            f"camera pose from {source}: position {pose.position}; images on "
+            f"{self.image_topic}; {self.detector.describe()}")
 
-    # --- inputs ---------------------------------------------------------------------------
+    def _camera_pose(self) -> tuple[CameraPose, str]:
+        pose = self.config.camera_pose_from_parameters()
+        if pose is not None:
+            return pose, "parameters camera_pose.*"
+        path = config_path(self.config.calibration_file)
+        try:
+            return load_camera_pose(path), str(path)
+        except (OSError, MessageError) as err:
+            raise ValueError(
+                f"no camera pose: camera_pose.* parameters unset and {path} unusable "
+                f"({err}); run densepack-calibrate or pass --params-file "
+                "config/camera_calibration.yaml") from None
+
+    @property
+    def image_topic(self) -> str:
+        return IMAGE_TOPICS[self.config.image_rectified]
+
+    def _make_interfaces(self) -> None:
+        camera_group = MutuallyExclusiveCallbackGroup()
+        control_group = MutuallyExclusiveCallbackGroup()
+        self.publisher = self.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
+        self.markers = self.create_publisher(MarkerArray, "/blocks/detected/markers", RELIABLE)
+        camera = camera_qos(self.config.image_reliability)
+        self.create_subscription(Image, self.image_topic, self.on_image, camera,
+                                 callback_group=camera_group)
+        self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, camera,
+                                 callback_group=camera_group)
+        self.create_service(Trigger, "~/reset", self.on_reset, callback_group=control_group)
+        if self.config.correct_from_placements:
+            self.create_subscription(Placement, "/executor/placements", self.on_placement,
+                                     RELIABLE, callback_group=control_group)
+        self.create_timer(WATCHDOG_PERIOD_S, self.watchdog, callback_group=control_group)
+
+    # --- inputs (the camera callbacks only pair; the worker detects) ------------------------
     def on_image(self, msg: Image) -> None:
         self._last_image_wall = time.monotonic()
         self._follow_clock_jump()
-        self._handle(self.pairer.add_image(stamp_to_ns(msg.header.stamp), msg))
+        self._handle(self.inbox.add_image(stamp_to_ns(msg.header.stamp), msg))
 
     def on_info(self, msg: CameraInfo) -> None:
         self._follow_clock_jump()
-        self._handle(self.pairer.add_info(stamp_to_ns(msg.header.stamp), msg))
+        self._handle(self.inbox.add_info(stamp_to_ns(msg.header.stamp), msg))
 
     def on_placement(self, msg: Placement) -> None:
         try:
             placement = placement_from_msg(msg)
         except (MessageError, ValueError) as err:
-            self.warn("placement", f"ignoring a malformed /executor/placements: {err}")
+            self.warn(WarningKind.PLACEMENT, f"ignoring a malformed /executor/placements: {err}")
             return
-        if self.hand_eye is not None:
-            self.hand_eye.on_placement(placement)
+        with self._state:
+            if self.hand_eye is not None:
+                self.hand_eye.on_placement(placement)
 
     def on_reset(self, request: Trigger.Request, response: Trigger.Response):
-        self.detector.reset()
+        with self._state:
+            self.detector.reset()
         response.success = True
         response.message = "forgot the blocks seen so far"
         return response
@@ -119,26 +154,43 @@ class DetectorNode(Node):
     def _follow_clock_jump(self) -> None:
         if self._clock_jumped:
             self._clock_jumped = False
-            self.pairer.reset()
-            self.detector.reset()
-            self.warn("clock", "the clock jumped back (simulation reset?): starting afresh, "
-                      "known blocks forgotten")
+            self.inbox.reset()
+            self._forget.set()
+            self.warn(WarningKind.CLOCK, "the clock jumped back (simulation reset?): starting "
+                      "afresh, known blocks forgotten")
 
-    # --- processing -----------------------------------------------------------------------
-    def _handle(self, result) -> None:
+    def _handle(self, result: PairResult) -> None:
         if result.clock_reset:
-            self.detector.reset()
-            self.warn("clock", "image stamps jumped back (simulation reset?): starting afresh, "
-                      "known blocks forgotten")
-        for stamp_ns, reason in result.dropped:
-            self.warn("dropped", f"frame {stamp_ns} ns skipped: {reason}")
+            self._forget.set()
+            self.warn(WarningKind.CLOCK, "image stamps jumped back (simulation reset?): "
+                      "starting afresh, known blocks forgotten")
+        for stamp_ns, why in result.dropped:
+            if why in WARNED_DROPS:
+                self.warn(WARNED_DROPS[why], f"frame {stamp_ns} ns skipped: {why.value}")
         if result.pair is not None:
-            self.process(*result.pair)
+            self._last_frame_wall = time.monotonic()
+
+    # --- processing (the worker thread) ----------------------------------------------------
+    def _work(self) -> None:
+        while not self._stop.is_set():
+            frame = self.inbox.take(TAKE_TIMEOUT_S)
+            if frame is None or self._stop.is_set():
+                continue
+            try:
+                with self._state:
+                    self.process(*frame)
+            except Exception as err:  # the worker must outlive any one frame
+                self.refused += 1
+                self.get_logger().error(f"frame {frame[0]} ns: detection failed ({err!r}); "
+                                        "skipped, the next frame is tried")
 
     def process(self, stamp_ns: int, image_msg: Image, info_msg: CameraInfo) -> None:
         """Detect and publish one frame; a malformed frame is logged and skipped."""
+        if self._forget.is_set():
+            self._forget.clear()
+            self.detector.reset()
         try:
-            intrinsics = camera_info_to_intrinsics(info_msg)
+            intrinsics = camera_info_to_camera(info_msg, self.config.image_rectified)
             pixels = image_to_array(image_msg)
             height, width = pixels.shape[:2]
             if (width, height) != (intrinsics.width, intrinsics.height):
@@ -148,18 +200,31 @@ class DetectorNode(Node):
             result = self.detector.process(pixels, intrinsics, stamp_ns, image_msg.encoding)
             blocks = self._corrected(result.blocks, intrinsics)
             detected = block_set_to_msg(blocks)
-        except (MessageError, ValueError) as err:
-            self.warn("frame", f"frame {stamp_ns} ns skipped: {err}")
+        except UnsupportedLensModel as err:
+            self._refuse_lens(err)
             return
-        for text in result.warnings:
-            self.warn(text.split(":")[0], f"frame {stamp_ns} ns: {text}")
+        except (MessageError, ValueError) as err:
+            self.refused += 1
+            self.warn(WarningKind.BAD_FRAME, f"frame {stamp_ns} ns skipped: {err}")
+            return
+        for warning in result.warnings:
+            self.warn(warning.kind, f"frame {stamp_ns} ns: {warning.text}")
         self.publisher.publish(detected)
         self.markers.publish(block_set_to_markers(blocks))
         self.frames += 1
-        self._last_frame_wall = time.monotonic()
         self.get_logger().debug(
             f"frame {stamp_ns} ns: {len(result.blocks.blocks)} blocks, missing "
             f"{list(result.blocks.missing)}, {1000 * result.detect_s:.1f} ms")
+
+    def _refuse_lens(self, err: UnsupportedLensModel) -> None:
+        """A lens model without maths here: said once per model, every frame skipped."""
+        self.refused += 1
+        if err.model not in self._refused_models:
+            self._refused_models.add(err.model)
+            text = (f"camera_info distortion_model '{err.model}' is not supported ({err.reason})"
+                    f": every frame with it is skipped")
+            self.recent_warnings.append(text)
+            self.get_logger().error(text)
 
     def _corrected(self, raw, intrinsics):
         """The frame's blocks through the hand-eye correction (when enabled)."""
@@ -174,15 +239,32 @@ class DetectorNode(Node):
         self.hand_eye.log.clear()
         return blocks
 
+    # --- health -------------------------------------------------------------------------------
     def watchdog(self) -> None:
         now = time.monotonic()
         images_flowing = now - self._last_image_wall < NO_FRAME_WARN_S
         if images_flowing and now - self._last_frame_wall > NO_FRAME_WARN_S:
-            self.warn("no frame", f"images arrive on /camera/image_raw but none was paired "
-                      f"with a /camera/camera_info of the same stamp for "
+            self.warn(WarningKind.NO_FRAME, f"images arrive on {self.image_topic} but none was "
+                      f"paired with a /camera/camera_info of the same stamp for "
                       f"{now - self._last_frame_wall:.0f} s")
+        if now - self._last_counts_log >= COUNTS_LOG_S:
+            self._log_counts(now)
 
-    def warn(self, kind: str, text: str) -> None:
+    def _log_counts(self, now: float) -> None:
+        """Frames skipped since the last report, by why: a sum, not a line per frame."""
+        counts, received = self.inbox.snapshot()
+        new = counts - self._logged
+        if not new:
+            return
+        self._logged, self._last_counts_log = counts, now
+        parts = ", ".join(f"{n} {why.name.lower()}" for why, n in sorted(
+            new.items(), key=lambda kv: kv[0].name))
+        self.get_logger().info(
+            f"skipped since the last report: {parts} ({self.frames} frames processed, "
+            f"{received} images received in all; superseded: a newer frame was "
+            "complete first, incomplete: its camera_info or image was lost)")
+
+    def warn(self, kind: WarningKind, text: str) -> None:
         """Log a warning, each kind at most every WARN_EVERY_S; keep it for tests."""
         self.recent_warnings.append(text)
         now = time.monotonic()
@@ -190,9 +272,17 @@ class DetectorNode(Node):
             self._last_warned[kind] = now
             self.get_logger().warning(text)
 
+    def destroy_node(self) -> None:
+        self._stop.set()
+        self.inbox.close()
+        if self._worker.is_alive():
+            self._worker.join(timeout=10.0)
+        super().destroy_node()
 
-TOPICS = """subscribes: /camera/image_raw (sensor_msgs/Image rgb8), /camera/camera_info
-            (sensor_msgs/CameraInfo), paired by identical stamp
+
+TOPICS = """subscribes: /camera/image_raw (sensor_msgs/Image rgb8; /camera/image_rect with
+            image_rectified), /camera/camera_info (sensor_msgs/CameraInfo), paired by
+            identical stamp; /executor/placements (densepack_interfaces/Placement)
 publishes:  /blocks/detected (densepack_interfaces/BlockPoseArray: poses in world, missing ids),
             /blocks/detected/markers (visualization_msgs/MarkerArray: a CUBE per block, for viewers)
 services:   ~/reset (std_srvs/Trigger): forget the blocks seen so far"""

@@ -4,7 +4,8 @@
 set, an id seen twice in one frame, a fit whose reprojection error is above threshold) and
 tells seen blocks from known blocks that are *not* seen in this frame (``missing``): hidden
 by the arm, say. "Known" = the ``expected_ids`` given up front plus every id seen since
-start or since ``reset()``. Every refusal comes back as a warning string for the node to log.
+start or since ``reset()``. Every refusal comes back as a ``FrameWarning`` (its kind and
+the text) for the node to log.
 """
 
 from __future__ import annotations
@@ -23,6 +24,15 @@ from nodes.detector.config import DetectorConfig
 from nodes.detector.estimate import ESTIMATORS
 from nodes.detector.id_sets import format_id_set, parse_id_set
 from nodes.detector.tags import FinderSettings, TagDetection, TagFinder
+from nodes.detector.warning_kinds import WarningKind
+
+
+@dataclass(frozen=True)
+class FrameWarning:
+    """Something of a frame refused, and why, in words."""
+
+    kind: WarningKind
+    text: str
 
 
 @dataclass(frozen=True)
@@ -30,7 +40,7 @@ class FrameResult:
     """The outcome of one frame: the block set to publish and what was refused and why."""
 
     blocks: BlockSet
-    warnings: tuple[str, ...] = ()
+    warnings: tuple[FrameWarning, ...] = ()
     detections: tuple[TagDetection, ...] = ()
     detect_s: float = 0.0  # wall time from pixels to poses
     rejected: dict[int, str] = field(default_factory=dict)
@@ -79,17 +89,19 @@ class BlockDetector:
         start = time.perf_counter()
         camera = self.camera(intrinsics)
         detections = self.finder.find(to_gray(image, encoding))
-        warnings: list[str] = []
+        warnings: list[FrameWarning] = []
         rejected: dict[int, str] = {}
         counts = Counter(d.tag_id for d in detections)
         unknown = sorted(i for i in counts if i not in self.allowed)
         if unknown:
-            warnings.append(f"tag id(s) {unknown} outside allowed_ids "
-                            f"'{self.config.allowed_ids}': dropped")
+            warnings.append(FrameWarning(
+                WarningKind.UNKNOWN_ID,
+                f"tag id(s) {unknown} outside allowed_ids '{self.config.allowed_ids}': dropped"))
         duplicates = sorted(i for i, n in counts.items() if n > 1 and i in self.allowed)
         if duplicates:
-            warnings.append(f"tag id(s) {duplicates} seen more than once in one frame: cannot "
-                            "tell the blocks apart, all copies dropped")
+            warnings.append(FrameWarning(
+                WarningKind.DUPLICATE_ID, f"tag id(s) {duplicates} seen more than once in one "
+                "frame: cannot tell the blocks apart, all copies dropped"))
             rejected.update({i: "duplicate" for i in duplicates})
         blocks: list[BlockPose] = []
         reprojection: dict[int, float] = {}
@@ -100,9 +112,10 @@ class BlockDetector:
                                  self.config.tag_size)
             if not est.finite or est.reprojection_px > self.config.max_reprojection_px:
                 rejected[det.tag_id] = f"reprojection error {est.reprojection_px:.2f} px"
-                warnings.append(f"tag {det.tag_id}: reprojection error "
-                                f"{est.reprojection_px:.2f} px > max_reprojection_px "
-                                f"{self.config.max_reprojection_px}: dropped")
+                warnings.append(FrameWarning(
+                    WarningKind.REPROJECTION, f"tag {det.tag_id}: reprojection error "
+                    f"{est.reprojection_px:.2f} px > max_reprojection_px "
+                    f"{self.config.max_reprojection_px}: dropped"))
                 continue
             blocks.append(BlockPose(det.tag_id, est.x, est.y, est.theta))
             reprojection[det.tag_id] = round(est.reprojection_px, 4)

@@ -5,8 +5,8 @@ Tests and the detector's own tuning need images whose truth is exact. Each block
 of the face; the cube's sides are its projected silhouette. Rendering happens on a
 ``supersample``-times finer canvas that is then area-averaged, so edges are anti-aliased
 the way a real sensor integrates light; blur and Gaussian noise are optional. A camera with
-lens distortion (``intrinsics.d``) is rendered as the sim does it: the ideal image on a
-larger canvas, warped through the lens (``nodes.common.lens.lens_warp``).
+lens distortion (``intrinsics.d`` of any model) is rendered as the sim does it: the ideal
+image on a larger canvas, warped through the lens (``nodes.common.lens.lens_warp``).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from msgs_py import BlockPose
-from msgs_py.camera import NO_DISTORTION, CameraIntrinsics, CameraPose
+from msgs_py.camera import DISTORTION_MODEL, NO_DISTORTION, CameraIntrinsics, CameraPose
 from nodes.common.lens import lens_warp
 from nodes.common.transforms import matrix_to_quaternion
 from nodes.detector.camera_model import CameraModel
@@ -33,16 +33,17 @@ _CUBE_LOCAL = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
 def overhead_camera(
     width: int = 1280, height: int = 960, focal_px: float = 1100.0,
     center_xy: tuple[float, float] = (0.70, 0.0), height_m: float = 1.25,
-    distortion: tuple[float, ...] = NO_DISTORTION,
+    distortion: tuple[float, ...] = NO_DISTORTION, distortion_model: str = DISTORTION_MODEL,
 ) -> CameraModel:
     """The cell's overhead camera looking straight down (docs/contracts.md geometry), with
-    plumb_bob ``distortion`` (k1, k2, p1, p2, k3).
+    the lens ``distortion`` of ``distortion_model`` (default plumb_bob k1, k2, p1, p2, k3).
 
     The image's long side runs along world y, image up is world +x: camera x = -world y,
     camera y = -world x, camera z = -world z.
     """
     intrinsics = CameraIntrinsics(width, height, focal_px, focal_px,
-                                  (width - 1) / 2.0, (height - 1) / 2.0, distortion)
+                                  (width - 1) / 2.0, (height - 1) / 2.0, distortion,
+                                  distortion_model)
     rot = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
     pose = CameraPose((center_xy[0], center_xy[1], height_m),
                       tuple(float(v) for v in matrix_to_quaternion(rot)))

@@ -11,14 +11,17 @@ the predicted pixel (measured bias < 0.1 px).
 A real camera is not a pinhole with perfect pixels, so ``render_rgb`` images the scene the
 way one does (values and their sources: sim_assets/README.md):
 
-1. lens distortion (plumb_bob ``distortion``): TinyRenderer only renders pinhole images, so
-   the ideal image is rendered on a canvas large enough to hold every ideal pixel the lens
-   brings into view, then warped into the distorted image (``nodes.common.lens``);
+1. lens distortion (``distortion`` of ``distortion_model``: plumb_bob, rational_polynomial or
+   equidistant): TinyRenderer only renders pinhole images, so the ideal image is rendered on
+   a canvas large enough to hold every ideal pixel the lens brings into view, then warped
+   into the distorted image (``nodes.common.lens``);
 2. blur (``blur_sigma_px``): a Gaussian point spread of lens, diffraction and pixel area;
 3. noise: photon shot noise (``full_well_e``: variance grows with the signal) plus a
    signal-independent read noise (``noise_std``), rounded to 8 bits.
 
-Everything random comes from the caller's generator (the sim's ``seed``).
+Everything random comes from the caller's generator (the sim's ``seed``). What camera_info
+publishes of it: ``intrinsics`` (``k``, ``d``, the model) and ``rectified`` (``p``: OpenCV's
+optimal new camera matrix of ``k`` and ``d`` at ``rectify_alpha``, as a calibration has it).
 """
 
 from __future__ import annotations
@@ -29,9 +32,28 @@ import cv2
 import numpy as np
 import pybullet
 
-from msgs_py.camera import NO_DISTORTION, CameraIntrinsics
-from nodes.common.lens import distort_pixels, lens_warp, undistort_pixels
+from msgs_py.camera import (
+    DISTORTION_MODEL,
+    EQUIDISTANT,
+    NO_DISTORTION,
+    PLUMB_BOB,
+    RATIONAL_POLYNOMIAL,
+    CameraIntrinsics,
+)
+from nodes.common.lens import distort_pixels, lens_warp, rectified_camera, undistort_pixels
 from nodes.common.transforms import quaternion_to_matrix
+
+#: The sim camera's lens (barrel, -2.4 % at the image corners; sim_assets/README.md) written
+#: in each model: the rational and equidistant forms are least-squares fits of the plumb_bob
+#: form's radial mapping out to 1.4 x the corners' radius (within 0.03 px at fx = 1400 px;
+#: the equidistant model has no tangential terms).
+LENS_COEFFICIENTS = {
+    PLUMB_BOB: (-0.10, 0.08, 0.0002, -0.00015, 0.0),
+    RATIONAL_POLYNOMIAL: (0.4003, 0.1268, 0.0002, -0.00015, 0.0392, 0.5, 0.1, 0.0),
+    EQUIDISTANT: (0.2321, 0.1339, -0.0003, 0.3531),
+}
+#: The model config/sim.yaml writes it in (as real calibrations often do: 8 coefficients).
+DEFAULT_LENS_MODEL = RATIONAL_POLYNOMIAL
 
 #: Grey level of the full well: a saturated pixel reads 255.
 FULL_SCALE_DN = 255.0
@@ -52,9 +74,11 @@ class SimCamera:
     orientation_xyzw: tuple[float, float, float, float]  #: optical frame in world
     near: float = 0.1
     far: float = 3.0
-    distortion: tuple[float, ...] = NO_DISTORTION  #: plumb_bob k1, k2, p1, p2, k3
+    distortion: tuple[float, ...] = NO_DISTORTION  #: d of distortion_model (OpenCV order)
     blur_sigma_px: float = 0.0  #: Gaussian point-spread sigma, px
     full_well_e: float = 0.0  #: electrons at full scale (255); 0 = no shot noise
+    distortion_model: str = DISTORTION_MODEL
+    rectify_alpha: float = 0.0  #: free scaling of the rectified camera (p), 0-1
 
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
@@ -65,6 +89,8 @@ class SimCamera:
             raise ValueError(f"need 0 < near < far, got {self.near}, {self.far}")
         if not self.blur_sigma_px >= 0.0 or not self.full_well_e >= 0.0:
             raise ValueError("blur_sigma_px and full_well_e must be >= 0")
+        if not 0.0 <= self.rectify_alpha <= 1.0:
+            raise ValueError(f"rectify_alpha must be in [0, 1], got {self.rectify_alpha}")
         object.__setattr__(self, "distortion", tuple(float(v) for v in self.distortion))
         self.intrinsics  # noqa: B018 - validates the distortion (raises MessageError)
 
@@ -75,9 +101,14 @@ class SimCamera:
 
     @property
     def intrinsics(self) -> CameraIntrinsics:
-        """What ``sensor_msgs/CameraInfo`` publishes of this camera."""
+        """What ``sensor_msgs/CameraInfo`` publishes of this camera: ``k``, ``d``, the model."""
         return CameraIntrinsics(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
-                                self.distortion)
+                                self.distortion, self.distortion_model)
+
+    @property
+    def rectified(self) -> CameraIntrinsics:
+        """The rectified camera camera_info's ``p`` holds (computed once per camera)."""
+        return rectified_camera(self.intrinsics, self.rectify_alpha)
 
     @property
     def k(self) -> np.ndarray:
@@ -152,7 +183,7 @@ def render_rgb(client, camera: SimCamera, noise_std: float = 0.0,
         warp = lens_warp(camera.intrinsics)
         c = warp.canvas
         canvas = replace(camera, width=c.width, height=c.height, cx=c.cx, cy=c.cy,
-                         distortion=NO_DISTORTION)
+                         distortion=NO_DISTORTION, distortion_model=DISTORTION_MODEL)
         image = warp.apply(_render_pinhole(client, canvas).astype(np.float32))
     else:
         image = _render_pinhole(client, camera).astype(np.float32)

@@ -6,10 +6,15 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from msgs_py.camera import (
+    CAMERA_RELIABILITIES,
+    DISTORTION_COEFFICIENTS,
+    coefficients_reason,
+)
 from nodes.common.params import configs_from_parameters, param, read_params_file
 from nodes.common.paths import config_path
 from nodes.robot import gripper_2f85 as g85
-from nodes.sim.camera import SimCamera
+from nodes.sim.camera import DEFAULT_LENS_MODEL, LENS_COEFFICIENTS, SimCamera
 from nodes.sim.joint_control import MOTION_CONTROLLERS
 
 #: Park pose of the TCP (world, tool pointing down, closing axis along x): outside the camera's
@@ -143,9 +148,22 @@ class CameraConfig:
                                "variance grey x 255 / full_well_e; 0 = none", unit="e-")
     blur_sigma_px: float = param(0.5, "sigma of the Gaussian blur (lens, diffraction, pixel "
                                  "area); 0 = none", unit="px")
-    distortion: tuple = param([-0.10, 0.08, 0.0002, -0.00015, 0.0],
-                              "lens distortion, plumb_bob k1, k2, p1, p2, k3 (published in "
-                              "camera_info d); all zero = ideal pinhole")
+    distortion_model: str = param(
+        DEFAULT_LENS_MODEL, "lens model of camera.distortion, as camera_info names it: plumb_bob "
+        "(k1 k2 p1 p2 k3), rational_polynomial (k1 k2 p1 p2 k3 k4 k5 k6) or equidistant "
+        "(fisheye: k1 k2 k3 k4)")
+    distortion: tuple = param(list(LENS_COEFFICIENTS[DEFAULT_LENS_MODEL]),
+                              "lens distortion coefficients of camera.distortion_model, "
+                              "OpenCV's order (published in camera_info d); all zero = ideal "
+                              "pinhole")
+    rectify_alpha: float = param(
+        0.0, "camera_info p is OpenCV's optimal new camera matrix of k and d at this alpha "
+        "(0: every rectified pixel shows the scene, ROS camera_calibration's default; 1: "
+        "every raw pixel is kept)")
+    reliability: str = param(
+        "reliable", "QoS reliability of the /camera/* publishers: reliable (a subscriber of "
+        "either kind hears it) or best_effort (a camera driver's sensor-data QoS: only "
+        "best-effort subscribers hear it)")
 
     def __post_init__(self) -> None:
         if len(self.position) != 3 or len(self.orientation_xyzw) != 4:
@@ -154,15 +172,23 @@ class CameraConfig:
             raise ValueError("camera.rate_hz and camera.noise_std must be >= 0")
         if self.full_well_e < 0 or self.blur_sigma_px < 0:
             raise ValueError("camera.full_well_e and camera.blur_sigma_px must be >= 0")
-        if len(self.distortion) != 5:
-            raise ValueError("camera.distortion needs 5 values: k1, k2, p1, p2, k3")
-        self.model()  # a distortion that folds the image over fails at startup
+        if self.distortion_model not in DISTORTION_COEFFICIENTS:
+            raise ValueError(f"camera.distortion_model: '{self.distortion_model}' is not one "
+                             f"of {sorted(DISTORTION_COEFFICIENTS)}")
+        if len(self.distortion) != len(DISTORTION_COEFFICIENTS[self.distortion_model]):
+            raise ValueError(f"camera.distortion: {coefficients_reason(self.distortion_model)},"
+                             f" got {len(self.distortion)} values")
+        if self.reliability not in CAMERA_RELIABILITIES:
+            raise ValueError(f"camera.reliability: '{self.reliability}' is not one of "
+                             f"{list(CAMERA_RELIABILITIES)}")
+        self.model()  # a distortion that folds the image over, a bad alpha: fail at startup
 
     def model(self) -> SimCamera:
         return SimCamera(self.width, self.height, self.fx, self.fy, self.cx, self.cy,
                          tuple(self.position), tuple(self.orientation_xyzw),
                          distortion=tuple(self.distortion), blur_sigma_px=self.blur_sigma_px,
-                         full_well_e=self.full_well_e)
+                         full_well_e=self.full_well_e, distortion_model=self.distortion_model,
+                         rectify_alpha=self.rectify_alpha)
 
 
 @dataclass(frozen=True)

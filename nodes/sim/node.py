@@ -53,7 +53,7 @@ from msgs_py.ros.image import (
 from msgs_py.sim import SimEvents as SimEventsRecord
 from msgs_py.status import GRIPPER_OBJECT_STATES
 from nodes.common.params import declare_config
-from nodes.common.qos import CAMERA, LATCHED, RELIABLE
+from nodes.common.qos import LATCHED, RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.driver_side import DriverSide
@@ -118,13 +118,14 @@ class SimNode(Node):
         self.pub_clock = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         # ur_robot_driver and the Robotiq driver (in its namespace)
         self.drivers = DriverSide(self, lambda: self.world, self._queue, self.pacer, group)
+        camera = camera_qos(self.camera_config.reliability)
         # the camera: a driver's topics (frames at camera.rate_hz, and one per render request)
-        self.pub_image = self.create_publisher(Image, "/camera/image_raw", CAMERA)
-        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
+        self.pub_image = self.create_publisher(Image, "/camera/image_raw", camera)
+        self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", camera)
         # image_transport's compressed sibling (JPEG, ~115 kB): what viewers, best-effort
         # subscribers and bags take. Encoded only while someone listens.
         self.pub_compressed = self.create_publisher(CompressedImage,
-                                                    "/camera/image_raw/compressed", CAMERA)
+                                                    "/camera/image_raw/compressed", camera)
         # what only a simulator has
         self.pub_truth = self.create_publisher(BlockPoseArray, "/sim/ground_truth", RELIABLE)
         self.pub_truth_markers = self.create_publisher(MarkerArray, "/sim/ground_truth/markers",
@@ -337,7 +338,8 @@ class SimNode(Node):
         self.pub_image.publish(array_to_image(rgb, stamp_ns))
         if self.pub_compressed.get_subscription_count():
             self.pub_compressed.publish(array_to_compressed_image(rgb, stamp_ns))
-        self.pub_info.publish(intrinsics_to_camera_info(self.world.camera.intrinsics, stamp_ns))
+        self.pub_info.publish(intrinsics_to_camera_info(
+            self.world.camera.intrinsics, stamp_ns, rectified=self.world.camera.rectified))
         return stamp_ns
 
     def destroy_node(self) -> None:

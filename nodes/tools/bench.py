@@ -25,7 +25,7 @@ from typing import Any
 SUITES = {
     "sim": "nodes.bench.sim",
     "arm": "nodes.bench.arm",
-    "perception": "nodes.detector.bench",
+    "perception": "nodes.bench.perception",
     "planner": "nodes.bench.planner",
     "cell": "nodes.bench.cell",
     "unlabeled": "nodes.bench.unlabeled",

@@ -33,9 +33,9 @@ def encode(pixels: np.ndarray, codec: str, level: int):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    from nodes.detector.bench import evaluate
+    from nodes.bench.perception import evaluate
+    from nodes.bench.sim_frames import sim_frames
     from nodes.detector.config import DetectorConfig
-    from nodes.detector.sim_frames import sim_frames
 
     parser = argparse.ArgumentParser(prog="codec_bench", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=16)

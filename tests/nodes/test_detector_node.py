@@ -4,6 +4,7 @@ MarkerArrays) out, bad input survived."""
 from __future__ import annotations
 
 import math
+import threading
 import time
 
 import numpy as np
@@ -17,14 +18,20 @@ from visualization_msgs.msg import Marker, MarkerArray
 from msgs_py import BlockPose
 from msgs_py.ros import block_set_from_msg, ns_to_stamp, stamp_to_ns
 from msgs_py.ros.image import array_to_image, intrinsics_to_camera_info
+from nodes.common.lens import rectified_camera
 from nodes.common.qos import CAMERA as CAMERA_QOS
+from nodes.common.qos import camera_qos
+from nodes.detector.camera_model import CameraModel
 from nodes.detector.node import DetectorNode
+from nodes.detector.sync import Drop
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
 
 pytestmark = pytest.mark.ros
 
 # A smaller frame than the cell's (640 x 480, same ground resolution) keeps DDS traffic light.
 CAMERA = overhead_camera(width=640, height=480, focal_px=1100.0)
+#: The sim camera's lens in its plumb_bob form (k1, k2, p1, p2, k3).
+LENS = (-0.10, 0.08, 0.0002, -0.00015, 0.0)
 BLOCKS = [BlockPose(i, 0.62 + 0.08 * (i % 3), -0.12 + 0.12 * (i // 3), 0.5 * i - 2.0)
           for i in range(6)]
 
@@ -46,10 +53,11 @@ def frame(blocks=BLOCKS, **kwargs) -> np.ndarray:
 class Camera:
     """Publishes image + camera_info pairs the way the sim does (same stamp)."""
 
-    def __init__(self, ros) -> None:
+    def __init__(self, ros, qos=CAMERA_QOS, topic="/camera/image_raw", info=None) -> None:
         self.ros = ros
-        self.images = ros.publisher("/camera/image_raw", Image, CAMERA_QOS)
-        self.infos = ros.publisher("/camera/camera_info", CameraInfo, CAMERA_QOS)
+        self.images = ros.publisher(topic, Image, qos)
+        self.infos = ros.publisher("/camera/camera_info", CameraInfo, qos)
+        self.info = info
         ros.wait_for_subscribers(self.images)
         ros.wait_for_subscribers(self.infos)
         self.stamp_ns = 1_000_000_000
@@ -58,7 +66,7 @@ class Camera:
         if stamp_ns is None:
             self.stamp_ns += 100_000_000
             stamp_ns = self.stamp_ns
-        info = info or intrinsics_to_camera_info(CAMERA.intrinsics, 0)
+        info = info or self.info or intrinsics_to_camera_info(CAMERA.intrinsics, 0)
         info.header.stamp = ns_to_stamp(stamp_ns if info_stamp_ns is None else info_stamp_ns)
         image = image or array_to_image(pixels, 0)
         image.header.stamp = ns_to_stamp(stamp_ns)
@@ -226,3 +234,96 @@ def test_a_simulation_reset_restarts_the_stamps_without_losing_frames(ros):
     msg = detection(ros, camera, frame())
     assert stamp_to_ns(msg.header.stamp) < first
     wait_for_warning(node, "the clock jumped back")
+
+
+def test_a_best_effort_camera_driver_is_heard_with_best_effort_subscriptions(ros):
+    """A driver's sensor-data QoS: a reliable subscription would never match it."""
+    ros.add(DetectorNode(context=ros.context,
+                         parameter_overrides=params(image_reliability="best_effort")))
+    camera = Camera(ros, qos=camera_qos("best_effort"))
+    blocks = block_set_from_msg(detection(ros, camera, frame()))
+    assert blocks.ids == [b.id for b in BLOCKS]
+
+
+def wait_until(condition, what: str, timeout: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.01)
+
+
+def test_frames_faster_than_detection_leave_only_the_newest_and_are_counted(ros, setup):
+    """While the worker detects one frame, three more complete: only the newest of them is
+    processed next, the two others are counted as superseded, nothing goes back in time."""
+    node, camera = setup
+    published = collect(ros)
+    gate, busy = threading.Event(), threading.Event()
+    detect = node.detector.process
+
+    def slow_detect(*args, **kwargs):
+        busy.set()
+        assert gate.wait(20.0)
+        return detect(*args, **kwargs)
+
+    node.detector.process = slow_detect
+    pixels = frame()
+    first = camera.send(pixels)
+    assert busy.wait(10.0)
+    later = []
+    for _ in range(3):
+        later.append(camera.send(pixels))
+        wait_until(lambda: node.inbox.pairer.last_ns == later[-1], "the frame to complete")
+    gate.set()
+    wait_until(lambda: len(published) == 2, "two detections")
+    time.sleep(0.3)
+    assert [stamp_to_ns(m.header.stamp) for m in published] == [first, later[-1]]
+    assert node.inbox.snapshot()[0] == {Drop.SUPERSEDED: 2} and node.frames == 2
+
+
+def test_rectified_images_are_read_with_p_and_no_distortion(ros):
+    """image_proc's image_rect: the detector subscribes to it with image_rectified and takes
+    p's camera, not k and d (which would correct the lens twice)."""
+    lens = overhead_camera(width=640, height=480, focal_px=1100.0, distortion=LENS)
+    rect = rectified_camera(lens.intrinsics, 0.0)
+    assert rect.k != lens.intrinsics.k
+    ros.add(DetectorNode(context=ros.context,
+                         parameter_overrides=params(image_rectified=True)))
+    info = intrinsics_to_camera_info(lens.intrinsics, 0, rectified=rect)
+    camera = Camera(ros, topic="/camera/image_rect", info=info)
+    image = render_blocks(CameraModel(rect, lens.rotation, lens.position), BLOCKS,
+                          RenderStyle(noise_std=2.0, blur_sigma_px=0.6),
+                          rng=np.random.default_rng(0))
+    blocks = block_set_from_msg(detection(ros, camera, image)).by_id()
+    for b in BLOCKS:
+        assert math.hypot(blocks[b.id].x - b.x, blocks[b.id].y - b.y) < 1e-3
+
+
+def test_a_lens_model_it_has_no_maths_for_is_refused_once_naming_it(ros, setup):
+    node, camera = setup
+    published = collect(ros)
+    info = intrinsics_to_camera_info(CAMERA.intrinsics, 0)
+    info.distortion_model, info.d = "kannala_brandt", [0.1, 0.01, 0.0, 0.0]
+    for _ in range(3):
+        camera.send(frame(), info=info)
+        wait_until(lambda: node.refused >= 1, "a refused frame")
+    wait_until(lambda: node.refused == 3, "three refused frames")
+    said = [w for w in node.recent_warnings if "kannala_brandt" in w]
+    assert len(said) == 1 and "not supported" in said[0]
+    assert published == [] and node.frames == 0
+
+
+def test_a_frame_whose_detection_fails_is_skipped_and_the_next_is_detected(ros, setup):
+    node, camera = setup
+    detect = node.detector.process
+    failures = []
+
+    def fail_once(*args, **kwargs):
+        if not failures:
+            failures.append(args[2])
+            raise RuntimeError("a bug in detection")
+        return detect(*args, **kwargs)
+
+    node.detector.process = fail_once
+    assert block_set_from_msg(detection(ros, camera, frame())).ids == [b.id for b in BLOCKS]
+    assert len(failures) == 1 and node.refused == 1

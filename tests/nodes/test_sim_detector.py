@@ -8,10 +8,13 @@ import numpy as np
 import pytest
 from densepack_interfaces.msg import BlockPoseArray
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import CameraInfo
 
 from msgs_py.ros import block_set_from_msg, stamp_to_ns
+from nodes.bench.perception_frames import LENSES
 from nodes.calibration.cli import CalibrateNode
 from nodes.common.paths import config_path
+from nodes.common.qos import camera_qos
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.node import DetectorNode
@@ -29,6 +32,34 @@ def calibration_params() -> list[Parameter]:
 def test_sim_frames_become_detections_matching_the_ground_truth(ros):
     sim = ros.add(SimNode(context=ros.context))
     ros.add(DetectorNode(context=ros.context, parameter_overrides=calibration_params()))
+    assert_detections_match_the_truth(ros, sim)
+
+
+def test_the_default_camera_publishes_a_rational_calibration_with_p_apart_from_k(ros):
+    ros.add(SimNode(context=ros.context))
+    info = ros.wait_for_message("/camera/camera_info", CameraInfo, timeout=30,
+                                qos=camera_qos("reliable"))
+    assert info.distortion_model == "rational_polynomial" and len(info.d) == 8
+    assert abs(info.p[0] - info.k[0]) > 10.0  # p: the optimal new camera matrix, not k
+
+
+def test_a_driver_like_fisheye_camera_on_best_effort_is_detected(ros):
+    """The sim as a camera driver with sensor-data (best-effort) QoS and an equidistant
+    calibration; the detector subscribes best effort."""
+    lens = LENSES["equidistant"]
+    sim = ros.add(SimNode(context=ros.context, parameter_overrides=[
+        Parameter("camera.distortion_model", value=lens.model),
+        Parameter("camera.distortion", value=list(lens.d)),
+        Parameter("camera.reliability", value="best_effort")]))
+    ros.add(DetectorNode(context=ros.context, parameter_overrides=[
+        *calibration_params(), Parameter("image_reliability", value="best_effort")]))
+    info = ros.wait_for_message("/camera/camera_info", CameraInfo, timeout=30,
+                                qos=camera_qos("best_effort"))
+    assert info.distortion_model == "equidistant" and len(info.d) == 4
+    assert_detections_match_the_truth(ros, sim)
+
+
+def assert_detections_match_the_truth(ros, sim) -> None:
     ids = sorted(b.id for b in sim.scene.blocks)
     msg = ros.wait_for_message("/blocks/detected", BlockPoseArray, timeout=60,
                                predicate=lambda m: len(m.blocks) == len(ids))

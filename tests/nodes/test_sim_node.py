@@ -248,7 +248,7 @@ def test_densepack_sim_runs_and_echo_shows_camera_info_across_processes():
         log, _ = sim.communicate(timeout=30)
         listener.kill()
     assert out.returncode == 0, out.stderr + log
-    assert "camera_optical_frame" in out.stdout
+    assert "camera_optical_frame" in out.stdout and "rational_polynomial" in out.stdout
     assert "IMAGE 1280 960 3686400" in listened, listened
     assert sim.returncode == 0, log
 

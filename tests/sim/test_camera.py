@@ -1,5 +1,6 @@
-"""The overhead camera: tags land on the pixels the intrinsics and the lens predict, all are
-visible; blur and noise are the configured ones, and seeded."""
+"""The overhead camera: tags land on the pixels the intrinsics and the lens (every model)
+predict, all are visible; camera_info carries the lens and p; blur and noise are the
+configured ones, and seeded."""
 
 from __future__ import annotations
 
@@ -10,12 +11,15 @@ import numpy as np
 import pytest
 
 from msgs_py import load_scene
+from msgs_py.ros.image import intrinsics_to_camera_info
+from nodes.bench.perception_frames import LENSES
 from nodes.common.paths import config_path
 from nodes.detector.tags import TagFinder
 from nodes.sim import robot_model as rm
 from nodes.sim.camera import render_rgb
 from nodes.sim.config import CameraConfig, SimConfig
 from nodes.sim.world import SimWorld
+from tests.unit.detector.lenses import MODELS, sim_camera
 
 
 def detect(rgb: np.ndarray) -> dict[int, np.ndarray]:
@@ -72,27 +76,24 @@ def test_a_tag_is_at_least_30_px_across_over_the_whole_workspace():
             assert np.linalg.norm(uv[0] - uv[1]) >= 30.0
 
 
-def test_the_lens_images_tags_where_opencv_projects_them():
-    """The warp's direction: tag corners measured on the rendered (distorted) image are
-    where cv2.projectPoints puts the blocks' true corners with the published ``d``, and
-    far from where a pinhole would put them."""
-    camera = CameraConfig().model()
-    assert camera.intrinsics.distorted
+@pytest.mark.parametrize("model", MODELS)
+def test_the_lens_images_tags_where_opencv_projects_them(model):
+    """The warp's direction, for every lens model: tag corners measured on the rendered
+    (distorted) image are where OpenCV's projection (cv2.projectPoints, or cv2.fisheye's for
+    equidistant) puts the blocks' true corners with the published ``d``, and far from where
+    a pinhole would put them."""
+    camera = sim_camera(model)
+    assert camera.intrinsics.distorted and camera.distortion_model == model
     world = SimWorld(SimConfig(), camera, load_scene(config_path("scenes/calibration.yaml")))
     try:
         world.step(24)
         image = render_rgb(world.client, camera)  # the configured blur and shot noise
         found = {d.tag_id: d.corners for d in TagFinder().find(image[..., 1])}
         assert sorted(found) == sorted(world.block_bodies)
-        r_wc = camera.rotation
-        rvec, _ = cv2.Rodrigues(r_wc.T)
-        tvec = -r_wc.T @ np.asarray(camera.position)
         errors, pinhole_errors = [], []
         for block_id, corners in found.items():
             truth = tag_corners_world(world, block_id)
-            expected, _ = cv2.projectPoints(truth, rvec, tvec, camera.k,
-                                            np.asarray(camera.distortion))
-            errors += list(np.linalg.norm(corners - expected.reshape(4, 2), axis=1))
+            errors += list(np.linalg.norm(corners - opencv_projection(camera, truth), axis=1))
             pinhole_errors += list(np.linalg.norm(corners - camera.project_ideal(truth),
                                                   axis=1))
     finally:
@@ -100,6 +101,44 @@ def test_the_lens_images_tags_where_opencv_projects_them():
     assert np.median(errors) < 0.15 and np.max(errors) < 0.6, (np.median(errors),
                                                                 np.max(errors))
     assert np.max(pinhole_errors) > 4.0  # the lens matters at the edges of the view
+
+
+def opencv_projection(camera, points_world: np.ndarray) -> np.ndarray:
+    """OpenCV's projection of world points through the camera's lens (the reference)."""
+    r_wc = camera.rotation
+    rvec, _ = cv2.Rodrigues(r_wc.T)
+    tvec = -r_wc.T @ np.asarray(camera.position)
+    d = np.asarray(camera.distortion)
+    if camera.distortion_model == "equidistant":
+        out, _ = cv2.fisheye.projectPoints(points_world.reshape(-1, 1, 3), rvec, tvec,
+                                           camera.k, d)
+    else:
+        out, _ = cv2.projectPoints(points_world, rvec, tvec, camera.k, d)
+    return out.reshape(-1, 2)
+
+
+def test_camera_info_carries_the_lens_and_p_apart_from_k():
+    """What the sim publishes: k, the model's d and its name, p = the optimal new camera
+    matrix: not k, and at alpha 1 (every raw pixel kept) a wider view than at alpha 0."""
+    for model in MODELS:
+        camera = sim_camera(model)
+        info = intrinsics_to_camera_info(camera.intrinsics, 0, rectified=camera.rectified)
+        assert info.distortion_model == model and len(info.d) == len(LENSES[model].d)
+        assert abs(info.p[0] - info.k[0]) > 10.0 and abs(info.p[5] - info.k[4]) > 10.0
+    wide = sim_camera("plumb_bob", rectify_alpha=1.0)
+    assert wide.rectified.fx < CameraConfig().model().rectified.fx
+
+
+@pytest.mark.parametrize("overrides,named", [
+    ({"distortion_model": "plumb_bob"}, "5 coefficients"),  # the default d has 8
+    ({"distortion_model": "kannala_brandt"}, "distortion_model"),
+    ({"distortion_model": "plumb_bob", "distortion": [-0.9, 0.0, 0.0, 0.0, 0.0]}, "folds over"),
+    ({"rectify_alpha": 1.5}, "rectify_alpha"),
+    ({"reliability": "sometimes"}, "reliability"),
+])
+def test_a_bad_lens_or_qos_is_refused_naming_it(overrides, named):
+    with pytest.raises(ValueError, match=named):
+        CameraConfig(**overrides)
 
 
 def test_pixel_noise_is_the_configured_shot_and_read_noise_and_seeded(default_world):

@@ -33,7 +33,7 @@ def test_rays_meet_the_plane_where_the_points_were():
     np.testing.assert_allclose(back, pts, atol=1e-12)
 
 
-#: The sim's default lens (config/sim.yaml camera.distortion).
+#: The sim camera's lens in its plumb_bob form.
 LENS = (-0.10, 0.08, 0.0002, -0.00015, 0.0)
 SPREAD = np.array([[x, y, z] for x in (0.42, 0.7, 0.98) for y in (-0.38, 0.0, 0.38)
                    for z in (0.0, 0.0508)])

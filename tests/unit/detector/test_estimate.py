@@ -8,16 +8,22 @@ import numpy as np
 import pytest
 
 from msgs_py import BlockPose
+from nodes.bench.perception_frames import LENSES
 from nodes.detector.estimate import ESTIMATORS, estimate_on_plane
 from nodes.detector.synthetic import overhead_camera
 from nodes.detector.tag_geometry import BLOCK_SIZE, tag_corners_world
 
 CAMERA = overhead_camera()
-#: The sim's camera: fx 1400 px and its lens (config/sim.yaml).
+#: The sim's camera: fx 1400 px and its lens in the plumb_bob form.
 LENS_CAMERA = overhead_camera(focal_px=1400.0, distortion=(-0.10, 0.08, 0.0002, -0.00015, 0.0))
+#: The same lens in the other models (the perception benchmark's).
+OTHER_LENSES = [overhead_camera(focal_px=1400.0, distortion=LENSES[m].d,
+                                distortion_model=LENSES[m].model)
+                for m in ("rational_polynomial", "equidistant")]
 
 
-@pytest.mark.parametrize("camera", [CAMERA, LENS_CAMERA], ids=["pinhole", "lens"])
+@pytest.mark.parametrize("camera", [CAMERA, LENS_CAMERA, *OTHER_LENSES],
+                         ids=["pinhole", "lens", "rational_polynomial", "equidistant"])
 @pytest.mark.parametrize("method", sorted(ESTIMATORS))
 @pytest.mark.parametrize("block", [BlockPose(0, 0.7, 0.0, 0.0), BlockPose(1, 0.5, -0.3, 2.9),
                                    BlockPose(2, 0.93, 0.33, -1.2)])

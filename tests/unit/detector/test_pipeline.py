@@ -12,6 +12,7 @@ from msgs_py import BlockPose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
+from nodes.detector.warning_kinds import WarningKind
 
 CAMERA = overhead_camera()
 STYLE = RenderStyle(noise_std=2.0, blur_sigma_px=0.6)
@@ -69,7 +70,8 @@ def test_duplicate_ids_are_both_dropped_with_a_warning():
               BlockPose(5, 0.7, 0.2, 0.0)]
     result = detector().process(render(blocks), CAMERA.intrinsics, 1)
     assert result.blocks.ids == [5]
-    assert any("more than once" in w for w in result.warnings)
+    assert [w.kind for w in result.warnings] == [WarningKind.DUPLICATE_ID]
+    assert "more than once" in result.warnings[0].text
     assert result.blocks.missing == (4,)
 
 
@@ -77,7 +79,8 @@ def test_unknown_ids_are_dropped_with_a_warning():
     blocks = [BlockPose(3, 0.6, -0.1, 0.0), BlockPose(42, 0.8, 0.1, 0.5)]
     result = detector(allowed_ids="0-24").process(render(blocks), CAMERA.intrinsics, 1)
     assert result.blocks.ids == [3]
-    assert any("42" in w and "allowed_ids" in w for w in result.warnings)
+    assert [w.kind for w in result.warnings] == [WarningKind.UNKNOWN_ID]
+    assert "42" in result.warnings[0].text and "allowed_ids" in result.warnings[0].text
     assert result.blocks.missing == ()
 
 
@@ -106,7 +109,8 @@ def test_tags_above_the_reprojection_threshold_are_dropped():
     det = detector(max_reprojection_px=0.01)
     result = det.process(render(SCENE[:2]), CAMERA.intrinsics, 1)
     assert result.blocks.blocks == () and len(result.rejected) == 2
-    assert all("reprojection" in w for w in result.warnings)
+    assert [w.kind for w in result.warnings] == [WarningKind.REPROJECTION] * 2
+    assert all("reprojection" in w.text for w in result.warnings)
 
 
 def test_a_block_carried_above_the_table_is_not_reported():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from nodes.detector import bench
+from nodes.bench import perception as bench
 
 
 def test_synthetic_run_reports_every_figure_and_meets_the_targets():

@@ -1,27 +1,36 @@
 """Perception benchmark: detected block poses against the simulator's ground truth.
 
-``densepack-bench perception [--quick] [--seeds K] [--compare] [--renderer sim|synthetic]``
+``densepack-bench perception [--quick] [--seeds K] [--compare] [--renderer sim|synthetic]
+[--lens NAME ...]``
 
 Each seed draws a scene of 9 to 25 blocks scattered at random (``nodes.common.scenes``),
 builds it with the sim's own world and camera code (PyBullet TinyRenderer, the true camera
-of ``config/sim.yaml``: lens distortion, blur, shot and read noise; ``--ideal-camera`` turns
-them off), lets it settle, renders one frame and takes the ground truth from
-the same world the sim node publishes ``/sim/ground_truth`` from. The detector sees the
-frame through its *calibrated* camera pose (``config/camera_calibration.yaml``), so the
-errors include the calibration's. Two situations per scene:
+of ``config/sim.yaml``: blur, shot and read noise; ``--ideal-camera`` turns them and the
+lens off), lets it settle and takes the ground truth from the same world the sim node
+publishes ``/sim/ground_truth`` from. The same scene is rendered through every lens of
+``LENSES`` (one physical lens written in each model: ``plumb_bob``, ``rational_polynomial``
+and ``equidistant``, within 0.03 px of each other), and each frame's camera_info is built
+as the sim publishes it (``p``: OpenCV's optimal new camera matrix of ``k`` and ``d``) and
+read back as the detector node reads it. Variants of a lens's frames: ``p = k`` (the
+camera_info the sim published before, p = k) and ``rectified`` (the frame rectified as
+image_proc's rectify node does it, bilinear, read with ``p`` and no distortion, as the
+detector's ``image_rectified`` does). The detector sees the frames through its
+*calibrated* camera pose (``config/camera_calibration.yaml``), so the errors include the
+calibration's. Two situations:
 
 * ``parked``: the arm in its park pose, out of view; every tag in the image is unoccluded.
-* ``arm over blocks`` (sim only): the arm hovers low over a random block. A tag counts as
-  unoccluded when the segmentation mask shows its whole square; the detector must find
-  all of those and list every block it saw before but cannot see now in ``missing``.
+* ``arm over blocks`` (sim only, first lens): the arm hovers low over a random block. A tag
+  counts as unoccluded when the segmentation mask shows its whole square; the detector must
+  find all of those and list every block it saw before but cannot see now in ``missing``.
 
 Figures per row: detection rate of unoccluded tags, false detections, position and yaw
 error (median, max) over every detected block, reprojection error, and detection latency
 per frame (pixels -> poses, rendering excluded). Latency is the fastest of ``--repeats``
 runs on the frame (wall time; on a shared machine the others measure other processes), and
 ``cpu_median_s`` is the process CPU time per frame. ``--compare`` adds rows for the other
-corner refinements and pose methods on the same frames, and a detector that ignores the
-lens distortion (``ignore d``: camera_info read as a pinhole's), to show what ``d`` is worth.
+corner refinements and pose methods on the first lens's parked frames, and a detector that
+ignores the lens distortion (``ignore d``: camera_info read as a pinhole's), to show what
+``d`` is worth.
 """
 
 from __future__ import annotations
@@ -31,19 +40,19 @@ import dataclasses
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from msgs_py import BlockPose, Scene
-from msgs_py.camera import CameraIntrinsics, CameraPose
+from msgs_py.camera import CameraPose
+from nodes.bench.perception_frames import LENSES, Frame, scene_for
+from nodes.bench.sim_frames import sim_frames
 from nodes.common.paths import config_path
-from nodes.common.scenes import BLOCK_SIZE, scatter_blocks, workspace_for
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector
+from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
 
-COLUMNS = ["situation", "refinement", "pose_method", "decimate", "scenes", "tags",
+COLUMNS = ["situation", "lens", "refinement", "pose_method", "decimate", "scenes", "tags",
            "detection_rate", "false_detections", "pos_err_median_m", "pos_err_max_m",
            "yaw_err_median_deg", "yaw_err_max_deg", "reproj_median_px", "latency_median_s",
            "latency_p90_s", "cpu_median_s", "missing_reported_rate", "meets_targets"]
@@ -63,26 +72,15 @@ VARIANTS = {
     "ignore d": {"ignore_distortion": True},
 }
 
-
-@dataclass
-class Frame:
-    """One rendered image with its truth."""
-
-    situation: str
-    image: np.ndarray
-    intrinsics: CameraIntrinsics
-    truth: dict[int, BlockPose]
-    unoccluded: set[int]
-    occluded: set[int] = field(default_factory=set)  # not fully visible (informational)
-    warmup: np.ndarray | None = None  # an arm-parked frame of the same scene, seen first
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--renderer", choices=["sim", "synthetic"], default="sim",
                         help="sim: PyBullet world and camera of the sim (default); synthetic: "
                              "the detector's own renderer, true camera pose")
     parser.add_argument("--compare", action="store_true",
                         help="also run the other refinements / pose methods on the frames")
+    parser.add_argument("--lens", choices=sorted(LENSES), action="append", default=None,
+                        help="sim: render through this lens only (repeatable; default: all, "
+                             "in the order plumb_bob, rational_polynomial, equidistant)")
     parser.add_argument("--density", type=float, default=0.25,
                         help="block area / workspace area of the scattered scenes")
     parser.add_argument("--noise", type=float, default=None,
@@ -96,21 +94,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "instead of config/sim.yaml's")
 
 
-def scene_for(seed: int, density: float) -> Scene:
-    """Seeded scene of 9-25 blocks, uniform count, scattered (no goal needed)."""
-    rng = np.random.default_rng(10_000 + seed)
-    n = int(rng.integers(9, 26))
-    workspace = workspace_for(n, density)
-    return Scene(workspace, BLOCK_SIZE, scatter_blocks(n, workspace, rng, min_gap=0.002))
-
-
 def run(opts: argparse.Namespace) -> list[dict]:
     n_seeds = opts.seeds or (4 if opts.quick else 20)
     if opts.renderer == "sim":
-        from nodes.detector.sim_frames import sim_frames
-
+        lenses = {name: LENSES[name] for name in (opts.lens or LENSES)}
         frames, true_pose, camera = sim_frames(range(n_seeds), opts.density, opts.noise,
-                                               opts.ideal_camera)
+                                               lenses, opts.ideal_camera)
     else:
         frames, true_pose = synthetic_frames(range(n_seeds), opts.density, opts.noise)
         camera = "synthetic"
@@ -119,24 +108,24 @@ def run(opts: argparse.Namespace) -> list[dict]:
         load_camera_pose(config_path("camera_calibration.yaml"))
     frames = list(frames)
     variants = VARIANTS if opts.compare else {"default": {}}
+    groups = list(dict.fromkeys((f.situation, f.lens) for f in frames))
     rows = []
-    for situation in dict.fromkeys(f.situation for f in frames):
-        chosen = [f for f in frames if f.situation == situation]
+    for situation, lens in groups:
+        chosen = [f for f in frames if (f.situation, f.lens) == (situation, lens)]
         for name, overrides in variants.items():
-            if situation != "parked" and name != "default":
+            if (situation, lens) != groups[0] and name != "default":
                 continue
             overrides = dict(overrides)
             ignore_d = overrides.pop("ignore_distortion", False)
             config = dataclasses.replace(DetectorConfig(), **overrides)
             row = evaluate(chosen, config, pose, situation, opts.repeats, ignore_d)
+            row["lens"] = lens
             row["camera"] = camera + (" (detector ignores d)" if ignore_d else "")
             rows.append(row)
     return rows
 
 
 def synthetic_frames(seeds, density: float, noise: float | None):
-    from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
-
     camera = overhead_camera(focal_px=1400.0)
     style = RenderStyle(noise_std=2.0 if noise is None else noise, blur_sigma_px=0.5)
 
@@ -146,7 +135,7 @@ def synthetic_frames(seeds, density: float, noise: float | None):
             image = render_blocks(camera, scene.blocks, style, rng=np.random.default_rng(seed))
             ids = {b.id for b in scene.blocks}
             yield Frame("parked", image, camera.intrinsics, {b.id: b for b in scene.blocks},
-                        ids)
+                        ids, lens="synthetic pinhole")
 
     return frames(), camera.pose
 
