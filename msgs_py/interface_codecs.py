@@ -50,10 +50,10 @@ from msgs_py.sim import (
     SimFault,
 )
 from msgs_py.status import (
-    EXECUTOR_STATES,
     GRIPPER_OBJECT_STATES,
     PLANNER_STATES,
     SAFETY_MODES,
+    ExecutorState,
     ExecutorStatus,
     GripperStatus,
     PlannerStatus,
@@ -89,7 +89,7 @@ def _constants(msg_type: type, prefix: str, names: Sequence[str]) -> dict[str, i
     return table
 
 
-EXECUTOR_STATE_CODES = _constants(ifc.ExecutorStatus, "STATE_", EXECUTOR_STATES)
+EXECUTOR_STATE_CODES = _constants(ifc.ExecutorStatus, "STATE_", [s.value for s in ExecutorState])
 PLANNER_STATE_CODES = _constants(ifc.PlannerStatus, "STATE_", PLANNER_STATES)
 PLAN_ERROR_CODES = _constants(PlanScene.Response, "ERROR_", PLAN_ERRORS)
 OUTCOME_CODES = _constants(Rearrange.Result, "OUTCOME_", REARRANGE_OUTCOMES)

@@ -28,7 +28,7 @@ SUITES = {
     "planner": "nodes.planner.bench",
     "cell": "nodes.tools.cell_bench",
     "unlabeled": "nodes.planner.unlabeled_bench",
-    "placement": "nodes.executor.placement_bench",
+    "placement": "nodes.bench.placement",
 }
 
 

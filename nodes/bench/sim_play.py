@@ -6,15 +6,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING
 
 from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
-from nodes.executor.steps import Step, StepRunner
-
-if TYPE_CHECKING:
-    from nodes.sim.world import SimWorld
+from nodes.executor.steps import Step, StepFaultKind, StepRunner
+from nodes.sim.world import SimWorld
 
 
 def tool_pose(world: SimWorld) -> ToolPose:
@@ -42,7 +39,8 @@ def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
             return runner, f"not finished in {limit_s:.0f} s"
         now = world.time_s
         tick = runner.update(now, tool_pose(world), now, [(now, world.gap())])
-        if tick.stalled and on_stall is not None:
+        stalled = tick.fault is not None and tick.fault.kind is StepFaultKind.STALLED
+        if stalled and on_stall is not None:
             on_stall(world, runner)
             continue
         if tick.error:
