@@ -83,7 +83,7 @@ class ExecutorCore:
         self._started_at: float | None = None
         self._now = 0.0
         self._out = Outputs()
-        #: what a state does on a tick with no script playing
+        #: what a state does on a tick with no script playing (idle: before the arm moves)
         self._at_rest: dict[State, Callable[[], Decision | None]] = {
             State.IDLE: self._idle,
             State.OBSERVING: lambda: observe.await_detection(
@@ -203,13 +203,13 @@ class ExecutorCore:
         if self._started_at is None and self.state is State.RUNNING:
             self._started_at = now
         if self.state is State.IDLE and not self.player.busy:
-            self._decide(self._at_rest[State.IDLE]())  # before the arm moves: a park streams now
+            self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
         if self.guard.engaged:
             self._protective_stop()
         elif self.player.busy:
             self._play(now)
         elif self.state is not State.IDLE and self.state in self._at_rest:
-            self._decide(self._at_rest[self.state]())
+            self._decide(self._at_rest[self.state]())  # a script it starts streams next tick
         readings = self.inbox.take_readings()
         if readings:  # judged while a script plays; otherwise only the latest counts
             self.supervisor.last = readings[-1]
@@ -234,7 +234,8 @@ class ExecutorCore:
             fault, placement = faults.supervise(
                 self.supervisor, self.belief, inbox.take_readings(), self.player.finished_steps,
                 tick.gripper, now, self.state is State.RUNNING, self._here)
-            self._out.placement = placement or self._out.placement
+            if placement is not None:
+                self._out.placement = placement
         if isinstance(fault, GraspFault):
             if self.state is not State.STOPPING:
                 self._decide(faults.on_grasp_fault(fault, self.belief, self.supervisor,
