@@ -4,10 +4,19 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from msgs_py import Pose2D
 from msgs_py.status import SafetyMode
+from nodes.executor import faults
+from nodes.executor.belief import Belief
 from nodes.executor.core import ExecutorCore
-from nodes.executor.states import State
+from nodes.executor.decisions import Halt, Observe, Stop
+from nodes.executor.player import Player
+from nodes.executor.report import Report
+from nodes.executor.states import Purpose, State, Tries
+from nodes.executor.steps import StepFault, StepFaultKind
+from nodes.executor.supervision import GraspSupervisor
 from tests.unit.executor.world import (
     CFG,
     DT,
@@ -183,3 +192,27 @@ def test_a_held_block_that_stops_the_arm_on_the_table_is_let_go_there():
     assert not any("setting block" in line for line in world.logs)  # not carried elsewhere
     stood = world.blocks[block]
     assert math.hypot(stood.x - opened.x, stood.y - opened.y) < 1e-6
+
+
+@pytest.mark.parametrize("kind, state, setting_apart, expected", [
+    (StepFaultKind.BLOCKED, State.RUNNING, None, Observe(Purpose.RECOVERY, near=True)),
+    (StepFaultKind.BLOCKED, State.RECOVERING, 2, Observe(Purpose.RECOVERY, near=True)),
+    (StepFaultKind.BLOCKED, State.RECOVERING, None, Stop("why", failed=True)),
+    (StepFaultKind.NOT_CONVERGED, State.RUNNING, None, Stop("why", failed=True)),
+    (StepFaultKind.REFUSED, State.OBSERVING, None, Stop("why", failed=True)),
+    (StepFaultKind.STALLED, State.STOPPING, None, Halt(State.FAILED)),
+    (StepFaultKind.GRIPPER_TIMEOUT, State.STOPPING, None, Halt(State.FAILED)),
+])
+def test_a_step_fault_leads_by_its_kind_and_the_state_to_one_answer(kind, state, setting_apart,
+                                                                     expected):
+    """A descent stopped above its end backs up and looks (setting blocks apart: the other
+    block first); any other fault stops the run, and one while stopping ends it failed."""
+    belief, tries, report = Belief(), Tries(setting_apart=setting_apart), Report()
+    report.last_error = "an earlier error"
+    decision = faults.on_step_fault(StepFault(kind, "why"), state, belief, Player(CFG),
+                                    GraspSupervisor(0.0508), tries, CFG, report)
+    assert decision == expected
+    if isinstance(expected, Halt):
+        assert report.last_error == "an earlier error; then why"
+    if setting_apart is not None:
+        assert tries.apart_blocked == {setting_apart} and tries.setting_apart is None
