@@ -8,23 +8,33 @@ dashboards and reports. The gripper's is what a 2F-85 driver reports. The codecs
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 
 from msgs_py.checks import finite_float
 from msgs_py.errors import MessageError
 from msgs_py.scene import SCHEMA_VERSION
 
-EXECUTOR_STATES = (
-    "idle",  # no plan yet
-    "running",  # streaming an action
-    "observing",  # arm out of the camera's view, waiting for a fresh detection
-    "recovering",  # handling a fault: setting a block down, bringing one back
-    "replanning",  # asked the planner for a new plan from the perceived state
-    "stopping",  # lifting and parking after a stop request or an error
-    "stopped",  # parked after /executor/stop; /executor/start resumes
-    "done",  # plan finished and every block verified at its goal
-    "failed",  # gave up; last_error says why
-)
+
+class ExecutorState(enum.StrEnum):
+    """What the executor is doing: the one list of its states. The executor's core switches
+    on it, its goal handling and the codecs use it, and the README's state table is printed
+    from the executor's table of the changes between them. A ``str`` enum: the value is the
+    word ``/executor/status`` carries, and a member equals its word."""
+
+    IDLE = "idle"  #: no plan yet, or parked until one and a start
+    RUNNING = "running"  #: streaming an action
+    OBSERVING = "observing"  #: arm out of the camera's view, waiting for a fresh detection
+    RECOVERING = "recovering"  #: handling a fault: setting a block down, bringing one back
+    REPLANNING = "replanning"  #: asked the planner for a new plan from the perceived state
+    STOPPING = "stopping"  #: lifting and parking after a stop request or an error
+    STOPPED = "stopped"  #: parked after /executor/stop; /executor/start resumes
+    DONE = "done"  #: plan finished and every block verified at its goal
+    FAILED = "failed"  #: gave up; last_error says why
+
+
+#: The executor states' words, in ``ExecutorState``'s order.
+EXECUTOR_STATES = tuple(state.value for state in ExecutorState)
 
 #: The gripper's object detection (the 2F-85's gOBJ), in the order of its codes 0-3.
 GRIPPER_OBJECT_STATES = (
@@ -60,9 +70,10 @@ PLANNER_STATES = (
 
 @dataclass(frozen=True, slots=True)
 class ExecutorStatus:
-    """What the executor is doing: action ``action_index`` (1-based) of ``action_total``."""
+    """What the executor is doing: action ``action_index`` (1-based) of ``action_total``.
+    ``state`` may be given as its word; it is kept as the ``ExecutorState``."""
 
-    state: str
+    state: ExecutorState
     plan_id: str = ""
     action_index: int = 0
     action_total: int = 0
@@ -73,8 +84,11 @@ class ExecutorStatus:
     version: int = SCHEMA_VERSION
 
     def __post_init__(self) -> None:
-        if self.state not in EXECUTOR_STATES:
-            raise MessageError("state", self.state, f"expected one of {list(EXECUTOR_STATES)}")
+        if not isinstance(self.state, ExecutorState):
+            if self.state not in EXECUTOR_STATES:
+                raise MessageError("state", self.state,
+                                   f"expected one of {list(EXECUTOR_STATES)}")
+            object.__setattr__(self, "state", ExecutorState(self.state))
 
 
 @dataclass(frozen=True, slots=True)

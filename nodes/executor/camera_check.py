@@ -30,7 +30,7 @@ from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import settle_onto, tool_yaw
 from nodes.executor.recovery import fingers_clear
-from nodes.executor.steps import Grip, Move, Rise, Step
+from nodes.executor.steps import Grip, Move, Rise, Step, of_block
 
 #: Closing along the block's x, then along its y: square to each other.
 PROBE_GRASPS = (0, 1)
@@ -67,21 +67,23 @@ def probe_steps(block: int, at: Pose2D, geo: GripperGeometry, cfg: ExecutorConfi
     over = [ToolPose(at.x, at.y, cfg.travel_height, yaw) for yaw in yaws]
     clear = geo.block_size + TURN_CLEARANCE
     tag = f"block {block}"
+    of = of_block(block)
     r = cfg.blend_radius
     settle = cfg.gripper_settle_s
     return [
-        Grip(opening, 0.0, f"{tag}: open", wait=False),
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r),
-        Move(over[0], cfg.travel_limits, f"{tag}: travel above", converge=False),
-        Grip(opening, settle, f"{tag}: fingers open"),
-        *settle_onto(over[0], cfg.grasp_height, cfg, f"{tag}: descend"),
-        Grip(cfg.grip_command, settle, f"{tag}: grip along x", holds=block),
-        Grip(opening, settle, f"{tag}: let go"),
+        Grip(opening, 0.0, f"{tag}: open", wait=False, **of),
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r, **of),
+        Move(over[0], cfg.travel_limits, f"{tag}: travel above", converge=False, **of),
+        Grip(opening, settle, f"{tag}: fingers open", **of),
+        *settle_onto(over[0], cfg.grasp_height, cfg, f"{tag}: descend", block),
+        Grip(cfg.grip_command, settle, f"{tag}: grip along x", holds=block, **of),
+        Grip(opening, settle, f"{tag}: let go", **of),
         Move(over[0].with_z(clear), cfg.vertical_limits, f"{tag}: clear the top",
-             converge=False),
-        Move(over[1].with_z(clear), cfg.travel_limits, f"{tag}: turn", converge=False),
-        *settle_onto(over[1].with_z(clear), cfg.grasp_height, cfg, f"{tag}: descend again"),
-        Grip(cfg.grip_command, settle, f"{tag}: grip along y", holds=block, squares=True),
-        Grip(opening, settle, f"{tag}: release"),
-        Move(over[1], cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r),
+             converge=False, **of),
+        Move(over[1].with_z(clear), cfg.travel_limits, f"{tag}: turn", converge=False, **of),
+        *settle_onto(over[1].with_z(clear), cfg.grasp_height, cfg, f"{tag}: descend again",
+                     block),
+        Grip(cfg.grip_command, settle, f"{tag}: grip along y", holds=block, squares=True, **of),
+        Grip(opening, settle, f"{tag}: release", **of),
+        Move(over[1], cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r, **of),
     ]

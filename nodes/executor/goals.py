@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from msgs_py import BlockSet, ExecutorStatus, MessageError, Plan, PlannerStatus, Scene
 from msgs_py.cell import TABLE_MARGIN
+from msgs_py.status import ExecutorState as State
 from msgs_py.tasks import BlockError, RearrangeFeedback
 from nodes.executor.verify import goal_errors
 
@@ -28,7 +29,8 @@ from nodes.executor.verify import goal_errors
 UR10E_REACH_M = 1.3
 
 #: Executor states in which it is moving or about to: a goal sent then would fight the run.
-BUSY_STATES = ("running", "observing", "recovering", "replanning", "stopping")
+BUSY_STATES = (State.RUNNING, State.OBSERVING, State.RECOVERING, State.REPLANNING,
+               State.STOPPING)
 
 
 def check_layout(layout: Scene, detection: BlockSet | None,
@@ -151,11 +153,11 @@ class GoalRun:
                         "layout (someone else published on /goal_layout)")
         if plan is not None:
             self.plan_id = plan.plan_id
-        if status.state == "done":
+        if status.state is State.DONE:
             return Step(feedback, outcome="succeeded", detail=status.detail)
-        if status.state == "failed":
+        if status.state is State.FAILED:
             return Step(feedback, outcome="failed", detail=status.last_error or status.detail)
-        if status.state == "stopped":
+        if status.state is State.STOPPED:
             if self.cancel_requested:
                 return Step(feedback, outcome="canceled",
                             detail=f"stopped safely: {status.detail}")
@@ -169,14 +171,14 @@ class GoalRun:
         if self.planner is not None:
             words += f" (planner: {self.planner.state}"
             words += f": {self.planner.last_error})" if self.planner.last_error else ")"
-        feedback = RearrangeFeedback("idle", detail=words)
+        feedback = RearrangeFeedback(State.IDLE, detail=words)
         if self.cancel_requested:
             return Step(feedback, outcome="canceled", detail="canceled before a plan came")
         if plan is not None and plan.plan_id != self.plan_before and plan_is_for(plan,
                                                                                 self.layout):
             self.plan_id = plan.plan_id
             self.replans_at_start = status.metrics.get("replans", 0.0)
-            return Step(RearrangeFeedback("idle", 0, len(plan.actions),
+            return Step(RearrangeFeedback(State.IDLE, 0, len(plan.actions),
                                           detail=f"plan {plan.plan_id}: {len(plan.actions)} "
                                           "actions"), start=True)
         if self.planner is not None and self.planner.state == "failed":

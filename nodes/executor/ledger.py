@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from collections import defaultdict
 
+from msgs_py.status import ExecutorState as State
+from nodes.executor.belief import Belief
+from nodes.executor.steps import Activity, Step
+
 
 class TimeLedger:
     """Seconds per activity, from the ticks' clock."""
@@ -25,3 +29,22 @@ class TimeLedger:
 
     def metrics(self) -> dict[str, float]:
         return {f"time_{name}_s": round(value, 3) for name, value in sorted(self.seconds.items())}
+
+
+def activity_of(state: State, belief: Belief, step: Step | None) -> str:
+    """What a tick in ``state`` with ``step`` playing (None: none) goes to: waiting for a
+    plan, recovering, the camera check, the kind of the plan's current action (a step of
+    handling its block, while running it or moving on to it), looking, or other."""
+    if state is State.REPLANNING:
+        return "replan"
+    if state is State.RECOVERING:
+        return "recover"
+    if belief.checking_camera:
+        return "camera_check"
+    if step is not None and step.activity is Activity.BLOCK and state in (
+            State.RUNNING, State.OBSERVING):
+        action = belief.current
+        return action.type if action is not None and action.block == step.block else "other"
+    if state is State.OBSERVING or (step is not None and step.activity is Activity.LOOK):
+        return "look"
+    return "other"

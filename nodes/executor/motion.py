@@ -9,6 +9,9 @@ continuous (finite jerk), so a carried block is not jolted at the start and end 
 With peak acceleration A a ramp lasts Ta = pi V / (2 A) and covers V Ta / 2; a move too
 short to reach V peaks at V' = sqrt(2 A D / pi). The slowest degree of freedom (translation or
 yaw) sets the profile, and both follow it, so the tool moves on the straight line.
+
+Two moves may overlap at a corner (``blend_overlap``: one slows down while the next speeds
+up), and a move under way can be braked to rest along its line (``braking_move``).
 """
 
 from __future__ import annotations
@@ -160,3 +163,64 @@ class LinearMove:
 def _per(limit: float, extent: float) -> float:
     """A limit in units of the move's fraction: inf when the degree of freedom does not move."""
     return limit / extent if extent > 1e-12 else math.inf
+
+
+def braking_move(start: ToolPose, velocity: tuple[float, float, float], decel: float
+                 ) -> LinearMove:
+    """A straight stop from ``velocity`` (m/s) at ``decel`` (m/s^2): the distance v^2 / (2 a)
+    along it, covered in v / a (a constant deceleration, written as the second half of a
+    move)."""
+    vx, vy, vz = velocity
+    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if speed < 1e-6:
+        return LinearMove(start, start, Profile.fastest(math.inf, math.inf))
+    distance = speed * speed / (2.0 * decel)
+    end = start.offset(vx / speed * distance, vy / speed * distance, vz / speed * distance)
+    return BrakingMove(start, end, Profile.fastest(math.inf, math.inf), speed, decel)
+
+
+@dataclass(frozen=True, slots=True)
+class BrakingMove(LinearMove):
+    """Constant deceleration from ``speed`` to rest over the segment start-end."""
+
+    speed: float = 0.0
+    decel: float = 1.0
+
+    @property
+    def duration(self) -> float:
+        return self.speed / self.decel
+
+    def sample(self, t: float) -> ToolPose:
+        t = min(max(t, 0.0), self.duration)
+        covered = self.speed * t - 0.5 * self.decel * t * t
+        length = self.length
+        u = covered / length if length > 0 else 1.0
+        if u >= 1.0 - 1e-12:
+            return self.end
+        a, b = self.start, self.end
+        return a.plus(u * (b.x - a.x), u * (b.y - a.y), u * (b.z - a.z), 0.0)
+
+
+@dataclass(slots=True)
+class Blending:
+    """A blended move's last part, still added to the setpoints while the next one starts."""
+
+    move: LinearMove
+    t0: float
+
+    def offset(self, now: float) -> ToolPose:
+        """Where this move still is relative to its end point."""
+        p, e = self.move.sample(now - self.t0), self.move.end
+        return ToolPose(p.x - e.x, p.y - e.y, p.z - e.z, p.yaw - e.yaw)
+
+
+def blend_overlap(current: LinearMove, following: LinearMove, radius: float) -> float:
+    """How long (s) the two moves may overlap: ``current`` within ``radius`` of its end,
+    ``following`` no further than ``radius`` from its start, and no longer than either's
+    speed ramp (so one slows down while the other speeds up)."""
+    if radius <= 0.0 or current.duration <= 0.0 or following.duration <= 0.0:
+        return 0.0
+    ending = current.time_left_within(radius)
+    starting = following.duration - following.time_left_within(
+        max(0.0, following.length - radius))
+    return min(ending, starting, current.profile.ramp, following.profile.ramp)

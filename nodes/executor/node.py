@@ -114,7 +114,7 @@ class ExecutorNode(Node):
         self.unlocker = self.create_client(Trigger, "/arm/unlock_protective_stop")
         self._last_status: ExecutorStatus | None = None
         self._last_status_time = 0.0
-        self.rearrange = RearrangeServer(self)
+        self.rearrange = RearrangeServer(self, self.core, self.lock, self.config)
         self.create_timer(1.0 / self.config.rate_hz, self.on_tick)
         self.get_logger().info(f"streaming at {self.config.rate_hz:.0f} Hz; waiting for /plan")
 

@@ -23,7 +23,7 @@ from msgs_py import PickPlace, Pose2D, Push, Workspace
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose, equivalent_yaw_near
-from nodes.executor.steps import Grip, Move, Rise, Step
+from nodes.executor.steps import Activity, Grip, Move, Rise, Step, of_block
 
 #: A two-finger grasp is the same under a half turn: a cube placed a half turn from its goal
 #: yaw has its fingers where the planner checked them (a quarter turn would not).
@@ -61,6 +61,15 @@ def pick_place_steps(
     the pick and place yaws centred on the park yaw. Each yaw on its own nearest the park
     yaw made turns up to 180 deg in the hand: slower, a larger yaw error at release, and in
     the sim the turn left stale anchored pad contacts that locked the fingers on release."""
+    approach, contact = _pick_place_parts(action, start, geo, cfg, pick_opening, turn_period)
+    return approach + contact
+
+
+def _pick_place_parts(
+    action: PickPlace, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig,
+    pick_opening: float | None, turn_period: float,
+) -> tuple[list[Step], list[Step]]:
+    """``pick_place_steps`` in two: up to above the block at travel height, and the rest."""
     opening = geo.approach_opening if pick_opening is None else pick_opening
     turn = hand_turn(start, action.to, turn_period)
     pick_yaw = equivalent_yaw_near(start.theta + action.grasp * math.pi / 2,
@@ -68,30 +77,37 @@ def pick_place_steps(
     place_yaw = pick_yaw + turn
     pick = ToolPose(start.x, start.y, cfg.travel_height, pick_yaw)
     place = ToolPose(action.to.x, action.to.y, cfg.travel_height, place_yaw)
-    tag = f"block {action.block}"
+    tag, of = f"block {action.block}", of_block(action.block)
     r = cfg.blend_radius
-    return [
-        Grip(opening, 0.0, f"{tag}: open", wait=False),
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r),
-        Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False),
-        Grip(opening, cfg.gripper_settle_s, f"{tag}: fingers open"),
-        *settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend"),
-        Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block),
-        Move(pick, cfg.vertical_limits, f"{tag}: lift", blend=r),
-        Move(place, cfg.travel_limits, f"{tag}: carry", converge=False),
-        *settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower"),
-        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release"),
-        Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r),
+    approach: list[Step] = [
+        Grip(opening, 0.0, f"{tag}: open", wait=False, **of),
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r, **of),
+        Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False, **of),
     ]
+    contact: list[Step] = [
+        Grip(opening, cfg.gripper_settle_s, f"{tag}: fingers open", **of),
+        *settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend", action.block),
+        Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block, **of),
+        Move(pick, cfg.vertical_limits, f"{tag}: lift", blend=r, **of),
+        Move(place, cfg.travel_limits, f"{tag}: carry", converge=False, **of),
+        *settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower",
+                     action.block),
+        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release", **of),
+        Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r, **of),
+    ]
+    return approach, contact
 
 
-def settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str) -> list[Step]:
+def settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str,
+                block: int | None = None) -> list[Step]:
     """Straight down from ``above`` to height ``z``: fast, then the last approach_distance
-    at approach_speed (contact happens slowly); the end is waited for."""
+    at approach_speed (contact happens slowly); the end is waited for. ``block``: the block
+    the descent handles (None: none)."""
+    of = of_block(block) if block is not None else {}
     return [
         Move(above.with_z(z + cfg.approach_distance), cfg.vertical_limits, label,
-             converge=False),
-        Move(above.with_z(z), cfg.approach_limits, f"{label} (last cm)", onto=above.z),
+             converge=False, **of),
+        Move(above.with_z(z), cfg.approach_limits, f"{label} (last cm)", onto=above.z, **of),
     ]
 
 
@@ -107,6 +123,13 @@ def push_steps(
     action: Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
 ) -> list[Step]:
     """Steps for a two-fingertip push of ``action`` with the block perceived at ``start``."""
+    approach, contact = _push_parts(action, start, geo, cfg)
+    return approach + contact
+
+
+def _push_parts(action: Push, start: Pose2D, geo: GripperGeometry, cfg: ExecutorConfig
+                ) -> tuple[list[Step], list[Step]]:
+    """``push_steps`` in two: up to behind the block at travel height, and the rest."""
     dx, dy = action.direction
     distance, behind = push_geometry(action, start, geo)
     yaw = tool_yaw(math.atan2(dy, dx) + math.pi / 2, cfg)
@@ -114,27 +137,33 @@ def push_steps(
     travel = distance + geo.push_contact_depth
     end = contact.offset(dx * travel, dy * travel)
     back = end.offset(-dx * cfg.push_backoff, -dy * cfg.push_backoff)
-    tag = f"block {action.block}"
-    return [
-        Grip(geo.push_opening, 0.0, f"{tag}: close to push", wait=False),
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius),
+    tag, of = f"block {action.block}", of_block(action.block)
+    approach: list[Step] = [
+        Grip(geo.push_opening, 0.0, f"{tag}: close to push", wait=False, **of),
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius,
+             **of),
         Move(contact.with_z(cfg.travel_height), cfg.travel_limits, f"{tag}: travel behind",
-             converge=False),
-        # the fingers must be at the push opening before they go down beside the blocks
-        Grip(geo.push_opening, cfg.gripper_settle_s, f"{tag}: fingers closed"),
-        *settle_onto(contact.with_z(cfg.travel_height), cfg.push_height, cfg,
-                      f"{tag}: descend behind"),
-        Move(end, cfg.push_limits, f"{tag}: push"),
-        Move(back, cfg.push_limits, f"{tag}: back off", converge=False),
-        Move(back.with_z(cfg.travel_height), cfg.vertical_limits, f"{tag}: retreat",
-             converge=False, blend=cfg.blend_radius),
+             converge=False, **of),
     ]
+    pushing: list[Step] = [
+        # the fingers must be at the push opening before they go down beside the blocks
+        Grip(geo.push_opening, cfg.gripper_settle_s, f"{tag}: fingers closed", **of),
+        *settle_onto(contact.with_z(cfg.travel_height), cfg.push_height, cfg,
+                     f"{tag}: descend behind", action.block),
+        Move(end, cfg.push_limits, f"{tag}: push", **of),
+        Move(back, cfg.push_limits, f"{tag}: back off", converge=False, **of),
+        Move(back.with_z(cfg.travel_height), cfg.vertical_limits, f"{tag}: retreat",
+             converge=False, blend=cfg.blend_radius, **of),
+    ]
+    return approach, pushing
 
 
 def park_steps(cfg: ExecutorConfig) -> list[Step]:
+    """Up to travel height and to the park pose, out of the camera's view."""
     return [
-        Rise(cfg.travel_height, cfg.vertical_limits, "park: rise", blend=cfg.blend_radius),
-        Move(cfg.park, cfg.travel_limits, "park"),
+        Rise(cfg.travel_height, cfg.vertical_limits, "park: rise", blend=cfg.blend_radius,
+             activity=Activity.LOOK),
+        Move(cfg.park, cfg.travel_limits, "park", activity=Activity.LOOK),
     ]
 
 
@@ -153,8 +182,9 @@ def look_pose(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> Tool
 def look_steps(cfg: ExecutorConfig, workspace: Workspace, near: ToolPose) -> list[Step]:
     """From above the workspace (at ``near``) to the look pose, stopping there."""
     return [
-        Rise(cfg.travel_height, cfg.vertical_limits, "look: rise", blend=cfg.blend_radius),
-        Move(look_pose(cfg, workspace, near), cfg.travel_limits, "look"),
+        Rise(cfg.travel_height, cfg.vertical_limits, "look: rise", blend=cfg.blend_radius,
+             activity=Activity.LOOK),
+        Move(look_pose(cfg, workspace, near), cfg.travel_limits, "look", activity=Activity.LOOK),
     ]
 
 
@@ -163,11 +193,9 @@ def hover_steps(action: PickPlace | Push, start: Pose2D, geo: GripperGeometry,
                 turn_period: float = GRASP_SYMMETRY) -> list[Step]:
     """The first moves of ``action``, up to above its block at travel height: safe to make
     before the world is judged (nothing is touched), so they overlap the camera's wait."""
-    steps = action_steps(action, start, geo, cfg, pick_opening, turn_period)
-    last = next(k for k, step in enumerate(steps)
-                if isinstance(step, Move) and step.label.endswith(("travel above",
-                                                                   "travel behind")))
-    return steps[:last + 1]
+    if isinstance(action, PickPlace):
+        return _pick_place_parts(action, start, geo, cfg, pick_opening, turn_period)[0]
+    return _push_parts(action, start, geo, cfg)[0]
 
 
 def action_steps(

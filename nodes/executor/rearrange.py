@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import TYPE_CHECKING
 
 from densepack_interfaces.action import Rearrange
 from densepack_interfaces.msg import GoalLayout
@@ -47,10 +46,9 @@ from msgs_py.ros import (
 )
 from msgs_py.tasks import RearrangeResult
 from nodes.common.qos import LATCHED
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.core import ExecutorCore
 from nodes.executor.goals import BUSY_STATES, GoalRun, block_errors, check_layout
-
-if TYPE_CHECKING:
-    from nodes.executor.node import ExecutorNode
 
 #: How often a running goal looks at the core (s, wall time).
 POLL_S = 0.1
@@ -59,12 +57,16 @@ HEARTBEAT_S = 1.0
 
 
 class RearrangeServer:
-    """``/rearrange`` for ``node`` (an ExecutorNode: its ``core``, ``lock`` and ``config``)."""
+    """``/rearrange`` beside ``node`` (it publishes the goal layout and names the server's
+    own node), for ``core``, whose every use holds ``core_lock``; ``cfg`` gives the arm's
+    box and how long to wait for a plan."""
 
-    def __init__(self, node: ExecutorNode) -> None:
+    def __init__(self, node: Node, core: ExecutorCore, core_lock: threading.Lock,
+                 cfg: ExecutorConfig) -> None:
         self.node = node
+        self.core, self.core_lock, self.cfg = core, core_lock, cfg
         self.log = node.get_logger()
-        self._lock = threading.Lock()  # guards the fields below; taken before node.lock
+        self._lock = threading.Lock()  # guards the fields below; taken before core_lock
         self._busy = False  # a goal accepted and not finished
         self._run: GoalRun | None = None
         self._detection: BlockSet | None = None
@@ -102,13 +104,13 @@ class RearrangeServer:
             if self._busy:
                 return self._reject("another goal is running (goals are not preempted: cancel "
                                     "it first)")
-            with self.node.lock:
-                status = self.node.core.status()
+            with self.core_lock:
+                status = self.core.status()
             if status.state in BUSY_STATES:
                 return self._reject(f"the executor is busy ({status.state}: {status.detail}); "
                                     "stop it first")
             try:
-                check_layout(layout, self._detection, self.node.config.safe_box)
+                check_layout(layout, self._detection, self.cfg.safe_box)
             except MessageError as err:
                 return self._reject(str(err))
             if self._detection is None:
@@ -142,14 +144,15 @@ class RearrangeServer:
 
     def _follow(self, handle) -> RearrangeResult:
         """Send the layout to the planner, start the core on its plan, report, finish."""
-        node, core = self.node, self.node.core
+        core, lock = self.core, self.core_lock
         layout = rearrange_goal_from_msg(handle.request)
-        with node.lock:
+        with lock:
             before = core.plan.plan_id if core.plan is not None else ""
-        run = GoalRun(layout, before, time.monotonic(), node.config.replan_timeout_s)
+        run = GoalRun(layout, before, time.monotonic(), self.cfg.replan_timeout_s)
         with self._lock:
             self._run = run
-        self.goal_pub.publish(goal_layout_to_msg(layout, node.get_clock().now().nanoseconds))
+        self.goal_pub.publish(goal_layout_to_msg(layout,
+                                                self.node.get_clock().now().nanoseconds))
         self.log.info(f"/rearrange goal accepted: {layout.goal.n_slots} slots; goal layout "
                       "sent to the planner")
         reported = -HEARTBEAT_S
@@ -158,14 +161,14 @@ class RearrangeServer:
                 return RearrangeResult("failed", "the executor is shutting down")
             if handle.is_cancel_requested and not run.cancel_requested:
                 run.cancel()
-                with node.lock:
+                with lock:
                     core.request_stop()
-            with node.lock:
+            with lock:
                 status, plan = core.status(), core.plan
             with self._lock:
                 step = run.update(status, plan, time.monotonic())
             if step.start:
-                with node.lock:
+                with lock:
                     core.request_start()
             now = time.monotonic()
             if run.changed(step.feedback) or now - reported >= HEARTBEAT_S:

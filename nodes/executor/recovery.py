@@ -9,13 +9,14 @@ is brought back the same way, with a grasp whose fingers are clear where it lies
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 
 import numpy as np
 import shapely
 
 from msgs_py import PickPlace, Pose2D, Workspace
-from msgs_py.cell import BLOCK_SIZE, TABLE_MARGIN, GripperGeometry
+from msgs_py.cell import BLOCK_SIZE, GRIPPER_STROKE, TABLE_MARGIN, GripperGeometry
 from msgs_py.footprint import (
     block_corners,
     grasp_finger_corners,
@@ -25,7 +26,7 @@ from msgs_py.footprint import (
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import GRASP_SYMMETRY, pick_place_steps
-from nodes.executor.steps import Grip, Move, Rise, Step
+from nodes.executor.steps import Grip, Move, Rise, Step, of_block
 
 #: Finger gap (m) that means "holding a block": the pads stopped on a cube of the contract's
 #: BLOCK_SIZE (open for a grasp is the block + 2 x clearance, closed on nothing is 0, a push
@@ -130,20 +131,35 @@ def free_grasp(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry
                 None)
 
 
+def wide_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: Workspace,
+                 geo: GripperGeometry, pick_clearance: float) -> float | None:
+    """The opening that leaves ``pick_clearance`` beside ``block`` (a perception a
+    centimetre off still grips it) if those fingers clear every other block of ``around``
+    and stand on ``table``; None (the plan's opening) otherwise."""
+    wide = dataclasses.replace(geo, approach_clearance=max(pick_clearance,
+                                                           geo.approach_clearance))
+    if wide.approach_opening > GRIPPER_STROKE - 0.001:
+        return None
+    if not fingers_clear(around, block, wide, grasp, table):
+        return None
+    return wide.approach_opening
+
+
 def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,
                    cfg: ExecutorConfig) -> list[Step]:
     """Carry the block in the fingers above ``where``, set it down and let go."""
     above = ToolPose(where.x, where.y, cfg.travel_height, yaw)
-    tag = f"block {block}"
+    tag, of = f"block {block}", of_block(block)
     return [
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius),
-        Move(above, cfg.travel_limits, f"{tag}: carry", converge=False),
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius,
+             **of),
+        Move(above, cfg.travel_limits, f"{tag}: carry", converge=False, **of),
         Move(above.with_z(cfg.grasp_height + cfg.place_drop + cfg.approach_distance),
-             cfg.vertical_limits, f"{tag}: lower", converge=False),
+             cfg.vertical_limits, f"{tag}: lower", converge=False, **of),
         Move(above.with_z(cfg.grasp_height + cfg.place_drop), cfg.approach_limits,
-             f"{tag}: lower (last cm)"),
-        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release"),
-        Move(above, cfg.vertical_limits, f"{tag}: retreat"),
+             f"{tag}: lower (last cm)", **of),
+        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release", **of),
+        Move(above, cfg.vertical_limits, f"{tag}: retreat", **of),
     ]
 
 

@@ -1,9 +1,10 @@
 """The executor's states, the one table of the changes between them, and its small records.
 
-``State`` is what ``/executor/status`` publishes; ``TRANSITIONS`` lists every change the
-executor may make, with its reason (``ExecutorCore._enter`` refuses any other; docs/nodes.md
-prints the table). ``After`` says what a motion script leads to, ``Purpose`` what a frame is
-judged against.
+The states are ``msgs_py.status.ExecutorState`` (what ``/executor/status`` publishes, the
+one list the goal handling and the codecs use too); ``TRANSITIONS`` lists every change the
+executor may make, with its reason (``ExecutorCore`` refuses any other; the README prints
+the table). ``Purpose`` says what a frame is judged against, ``Held`` what the fingers hold,
+``Tries`` how often something was tried, ``Outputs`` what a tick hands the node.
 """
 
 from __future__ import annotations
@@ -13,22 +14,8 @@ from dataclasses import dataclass, field
 
 from msgs_py import Pose2D
 from msgs_py.placement import Placement
+from msgs_py.status import ExecutorState as State
 from nodes.executor.motion import ToolPose
-
-
-class State(enum.Enum):
-    """What the executor is doing; the value is the word ``/executor/status`` publishes."""
-
-    IDLE = "idle"
-    OBSERVING = "observing"
-    RUNNING = "running"
-    RECOVERING = "recovering"
-    REPLANNING = "replanning"
-    STOPPING = "stopping"
-    STOPPED = "stopped"
-    DONE = "done"
-    FAILED = "failed"
-
 
 #: Every state change, and why it happens (the executor refuses any other).
 TRANSITIONS: dict[State, dict[State, str]] = {
@@ -79,16 +66,8 @@ TRANSITIONS: dict[State, dict[State, str]] = {
     State.FAILED: {State.IDLE: "a new plan"},
 }
 
-
-class After(enum.Enum):
-    """What a motion script leads to when it has run to its end."""
-
-    LOOK = "look"  #: the arm is out of view: take a frame
-    ACTION_DONE = "action done"  #: the action ran (and the arm is at the look pose, or not)
-    HOVERING = "hovering"  #: above the next block while the camera's frame is judged
-    IDLE_PARKED = "idle parked"
-    RECOVERED = "recovered"  #: a recovery ran: look again
-    STOPPED = "stopped"  #: parked after a stop or an error
+#: States in which the arm is busy with a run: a plan that comes then waits for it to end.
+PLANS_WAIT_IN = (State.RUNNING, State.OBSERVING, State.RECOVERING, State.STOPPING)
 
 
 class Purpose(enum.Enum):
@@ -123,6 +102,36 @@ class Held:
     block: int | None
     picked_from: Pose2D | None = None
     squared: bool = False
+
+
+@dataclass
+class Streak:
+    """Tries at the same thing in a row: ``count`` of them, at ``of`` (a block, say)."""
+
+    of: int | None = None
+    count: int = 0
+
+    def again(self, of: int) -> int:
+        """One more try at ``of``: how many in a row that makes."""
+        self.count = self.count + 1 if of == self.of else 1
+        self.of = of
+        return self.count
+
+    def reset(self) -> None:
+        self.of, self.count = None, 0
+
+
+@dataclass
+class Tries:
+    """How often the executor has tried to get one thing right, so it can give up in time."""
+
+    grasps: int = 0  #: failed grasps of the current action (each tried again, then replanned)
+    release_stalls: int = 0  #: openings that stalled since the last finished action
+    stall_z: float = 0.0  #: the tool height where the first of them began (m)
+    separations: int = 0  #: overlapping blocks set apart in a row
+    setting_apart: int | None = None  #: the block a set-apart is going down for
+    apart_blocked: set[int] = field(default_factory=set)  #: ... whose descent met its partner
+    bring_ins: Streak = field(default_factory=Streak)  #: a block brought into the workspace
 
 
 def transitions_markdown() -> str:

@@ -2,27 +2,53 @@
 
 A primitive (pick-and-place, push, park) is a list of steps: ``Move`` (a straight,
 time-optimal move to a tool pose), ``Rise`` (straight up to a height from wherever the tool
-is), ``Grip`` (set the finger opening and wait until the gripper has done it). ``StepRunner``
-plays a script: fed the time, the measured TCP and the measured finger gap at every tick, it
-returns the setpoint (and gripper command) to publish, so the node stays a thin timer
-callback and tests can play a script without ROS.
+is), ``Grip`` (set the finger opening and wait until the gripper has done it), each with the
+activity it serves and the block it handles. ``StepRunner`` plays a script: fed the time, the
+measured TCP and the measured finger gap at every tick, it returns the setpoint (and gripper
+command) to publish, so the node stays a thin timer callback and tests can play a script
+without ROS.
 
 A move starts from where the script last commanded the tool, so streamed setpoints are
 continuous even when tracking lags. A move with a ``blend`` radius hands over to the next
 move that far before its end, the way a UR blends ``movel`` segments: the two profiles
 overlap (one slowing down while the other speeds up, so the speed never exceeds either's
 limit) and the tool rounds the corner within the radius instead of stopping in it. A move
-without a blend ends only when the measured TCP has converged on its end point.
+without a blend ends only when the measured TCP has converged on its end point. A script
+that cannot go on says why as a ``StepFault``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import enum
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
-from nodes.executor.motion import Limits, LinearMove, Profile, ToolPose
+from nodes.executor.grip import (
+    GRIP_MIN_S,
+    GRIP_STALL_S,
+    GRIP_TIMEOUT_S,
+    gripper_done,
+    opening_stalled,
+)
+from nodes.executor.motion import (
+    Blending,
+    Limits,
+    LinearMove,
+    ToolPose,
+    blend_overlap,
+    braking_move,
+)
+
+
+class Activity(enum.Enum):
+    """What a step is for, as the run's time is charged (``ledger.activity_of``)."""
+
+    BLOCK = "block"  #: handling the block ``Step.block``: charged to the plan action moving it
+    LOOK = "look"  #: getting out of the camera's view (the look and park poses)
+    OTHER = "other"  #: anything else (a stop's lift, letting go, ...)
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,6 +61,8 @@ class Move:
     #: the last part of a descent from this height (m) onto the table or a block: stopped
     #: above its end after coming down, the tool stands on something
     onto: float | None = None
+    activity: Activity = Activity.OTHER
+    block: int | None = None  #: the block the step handles (``Activity.BLOCK``)
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,6 +73,8 @@ class Rise:
     limits: Limits
     label: str = "rise"
     blend: float = 0.0
+    activity: Activity = Activity.OTHER
+    block: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,6 +94,8 @@ class Grip:
     holds: int | None = None
     wait: bool = True
     squares: bool = False
+    activity: Activity = Activity.OTHER
+    block: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,73 +106,55 @@ class Brake:
     velocity: tuple[float, float, float]
     decel: float
     label: str = "brake"
+    activity: Activity = Activity.OTHER
+    block: int | None = None
 
 
 Step = Move | Rise | Grip | Brake
 
 
+def of_block(block: int) -> dict[str, Any]:
+    """The fields (``activity``, ``block``) of a step that handles ``block``."""
+    return {"activity": Activity.BLOCK, "block": block}
+
+
+class StepFaultKind(enum.Enum):
+    """Why a script could not go on."""
+
+    REFUSED = "refused"  #: the next move would leave the safe box
+    NOT_CONVERGED = "not converged"  #: the measured TCP did not reach a move's end in time
+    BLOCKED = "blocked"  #: a descent stopped above its end: something stands below
+    STALLED = "stalled"  #: an opening stopped short: the fingers did not let go
+    GRIPPER_TIMEOUT = "gripper timeout"  #: the fingers neither reached the opening nor stopped
+
+
+@dataclass(frozen=True, slots=True)
+class StepFault:
+    """A script's fault, in words for the log and the status."""
+
+    kind: StepFaultKind
+    message: str
+
+
 @dataclass(frozen=True, slots=True)
 class Tick:
-    """What to publish this tick, and where the script stands."""
+    """What to publish this tick, and where the script stands (``fault``: why it cannot go
+    on)."""
 
     setpoint: ToolPose
     gripper: float | None
     done: bool
-    error: str = ""
+    fault: StepFault | None = None
     label: str = ""
-    blocked: bool = False  #: the error is a descent stopped above its end: something below
-    stalled: bool = False  #: the error is an opening that stopped short: not let go
+
+    @property
+    def error(self) -> str:
+        """The fault in words ("" without one), for players that only report it."""
+        return "" if self.fault is None else self.fault.message
 
 
 #: With no fresh measurement at all, give up after this many convergence timeouts.
 STALE_FACTOR = 5.0
-#: The gripper is done when its gap is this close to the command (m) ...
-GRIP_AT_POSITION = 0.0005
-#: ... or, having moved, has moved slower than GRIP_STILL_SPEED over the last GRIP_STILL_S
-#: (stopped on a block); never before GRIP_MIN_S (the command must reach the gripper first).
-#: Fingers that never move (already stopped on a block) count as done after GRIP_NO_MOTION_S.
-GRIP_STILL_SPEED = 0.002  # m/s
-GRIP_STILL_S = 0.04
-GRIP_MIN_S = 0.04
-GRIP_MOVED_M = 0.0005
-GRIP_NO_MOTION_S = 0.3
-#: Fingers told to open count as stopped only this close to the opening (m): nothing should
-#: stop an opening, and one that pauses on a block's face (a pad dragging) must not let the
-#: arm rise and tip the block it has just set down.
-GRIP_OPEN_SLACK = 0.002
-#: An opening still for this long short of it has stalled: something holds the fingers (s).
-#: Counted from the command (the fingers stand still before it, and for the gripper's
-#: latency after it); a pad that drags on the block pauses for less.
-GRIP_STALL_S = 1.0
-#: A gripper that neither reaches its opening nor stops within this long has failed (s).
-GRIP_TIMEOUT_S = 3.0
-
-
-@dataclass(slots=True)
-class _Blending:
-    """A blended move's last part, still added to the setpoints while the next one starts."""
-
-    move: LinearMove
-    t0: float
-
-    def offset(self, now: float) -> ToolPose:
-        """Where this move still is relative to its end point."""
-        p, e = self.move.sample(now - self.t0), self.move.end
-        return ToolPose(p.x - e.x, p.y - e.y, p.z - e.z, p.yaw - e.yaw)
-
-
-def blend_overlap(current: LinearMove, following: LinearMove, radius: float) -> float:
-    """How long (s) the two moves may overlap: ``current`` within ``radius`` of its end,
-    ``following`` no further than ``radius`` from its start, and no longer than either's
-    speed ramp (so one slows down while the other speeds up)."""
-    if radius <= 0.0 or current.duration <= 0.0 or following.duration <= 0.0:
-        return 0.0
-    ending = current.time_left_within(radius)
-    starting = following.duration - following.time_left_within(
-        max(0.0, following.length - radius))
-    return min(ending, starting, current.profile.ramp, following.profile.ramp)
-
-
 class StepRunner:
     """Plays a step script from ``start`` (the last commanded tool pose)."""
 
@@ -161,7 +175,7 @@ class StepRunner:
         self._measured_at = 0.0
         self._t0: float | None = None
         self._move: LinearMove | None = None
-        self._blending: list[_Blending] = []
+        self._blending: list[Blending] = []
         self.gripper: float | None = None
         self._gripper_sent = False
         self._gaps: list[tuple[float, float]] = []
@@ -172,8 +186,14 @@ class StepRunner:
         return self.index >= len(self.steps)
 
     @property
+    def current_step(self) -> Step | None:
+        """The step playing now (None: the script has ended)."""
+        return None if self.finished else self.steps[self.index]
+
+    @property
     def current_label(self) -> str:
-        return "" if self.finished else self.steps[self.index].label
+        step = self.current_step
+        return "" if step is None else step.label
 
     def update(self, now: float, measured: ToolPose | None, measured_at: float | None = None,
                gaps: Sequence[tuple[float, float]] = ()) -> Tick:
@@ -195,12 +215,12 @@ class StepRunner:
             step = self.steps[self.index]
             if self._t0 is None:
                 refusal = self._begin(step, now)
-                if refusal:
-                    return Tick(self.commanded, gripper, False, error=refusal, label=step.label)
+                if refusal is not None:
+                    return Tick(self.commanded, gripper, False, refusal, step.label)
             tick = self._update_step(step, now, measured)
             if tick.gripper is not None:
                 gripper = tick.gripper
-            if tick.error or not tick.done:
+            if tick.fault is not None or not tick.done:
                 return dataclasses.replace(tick, gripper=gripper)
             self.finished_steps.append(step)
             self._advance(step, now)
@@ -208,21 +228,22 @@ class StepRunner:
         return Tick(setpoint, gripper, not self._blending)
 
     # --- internals ------------------------------------------------------------------------------
-    def _begin(self, step: Step, now: float) -> str:
-        """Start ``step``; returns why it is refused (empty when it may run)."""
+    def _begin(self, step: Step, now: float) -> StepFault | None:
+        """Start ``step``; returns why it is refused (None when it may run)."""
         self._t0 = now
         self._gripper_sent = False
         self._gaps = self._gaps[-1:]
         if isinstance(step, Brake):
-            self._move = _braking_move(self.commanded, step)
+            self._move = braking_move(self.commanded, step.velocity, step.decel)
         elif isinstance(step, Move | Rise):
             target = self._target(step)
             if not self.in_safe_box(target):
                 self._t0 = None
-                return (f"step '{step.label}' would go to ({target.x:.3f}, {target.y:.3f}, "
-                        f"{target.z:.3f}), outside the safe box")
+                return StepFault(StepFaultKind.REFUSED,
+                                 f"step '{step.label}' would go to ({target.x:.3f}, "
+                                 f"{target.y:.3f}, {target.z:.3f}), outside the safe box")
             self._move = LinearMove.plan(self.commanded, target, step.limits)
-        return ""
+        return None
 
     def velocity(self, now: float) -> tuple[float, float, float]:
         """The setpoints' velocity (m/s) at ``now``, from the script's own timing."""
@@ -299,10 +320,10 @@ class StepRunner:
             blocked = (isinstance(step, Move) and step.onto is not None
                        and measured is not None
                        and _stopped_on_the_way_down(step.onto, end, measured, self.tol))
-            return Tick(end, None, False, label=step.label, blocked=blocked,
-                        error=f"step '{step.label}': TCP did not reach ({end.x:.4f}, "
-                              f"{end.y:.4f}, {end.z:.4f}) within {self.timeout:.1f} s "
-                              f"(off by {off})")
+            kind = StepFaultKind.BLOCKED if blocked else StepFaultKind.NOT_CONVERGED
+            return Tick(end, None, False, StepFault(
+                kind, f"step '{step.label}': TCP did not reach ({end.x:.4f}, {end.y:.4f}, "
+                      f"{end.z:.4f}) within {self.timeout:.1f} s (off by {off})"), step.label)
         return Tick(move.end, None, False, label=step.label)
 
     def _following_move(self, step: Step) -> LinearMove | None:
@@ -332,17 +353,19 @@ class StepRunner:
         elif not measured:
             done = t >= step.settle_s
         else:
-            done = t >= GRIP_MIN_S and _gripper_done(self._gaps, step.opening, t)
-        if not done and t >= GRIP_STALL_S and _opening_stalled(measured, step.opening):
-            return Tick(self.commanded, gripper, False, label=step.label, stalled=True,
-                        error=f"step '{step.label}': the fingers stopped opening at "
-                              f"{measured[-1][1] * 1e3:.1f} mm (asked for "
-                              f"{step.opening * 1e3:.1f} mm)")
+            done = t >= GRIP_MIN_S and gripper_done(self._gaps, step.opening, t)
+        if not done and t >= GRIP_STALL_S and opening_stalled(measured, step.opening):
+            return Tick(self.commanded, gripper, False, StepFault(
+                StepFaultKind.STALLED,
+                f"step '{step.label}': the fingers stopped opening at "
+                f"{measured[-1][1] * 1e3:.1f} mm (asked for {step.opening * 1e3:.1f} mm)"),
+                step.label)
         if not done and measured and t > GRIP_TIMEOUT_S:
-            return Tick(self.commanded, gripper, False, label=step.label,
-                        error=f"step '{step.label}': the gripper neither reached "
-                              f"{step.opening * 1e3:.1f} mm nor stopped within "
-                              f"{GRIP_TIMEOUT_S:.0f} s (gap {measured[-1][1] * 1e3:.1f} mm)")
+            return Tick(self.commanded, gripper, False, StepFault(
+                StepFaultKind.GRIPPER_TIMEOUT,
+                f"step '{step.label}': the gripper neither reached {step.opening * 1e3:.1f} mm "
+                f"nor stopped within {GRIP_TIMEOUT_S:.0f} s (gap {measured[-1][1] * 1e3:.1f} mm)"),
+                step.label)
         return Tick(self.commanded, gripper, done, label=step.label)
 
     def _advance(self, step: Step, now: float) -> None:
@@ -351,7 +374,7 @@ class StepRunner:
             started = now if self._t0 is None else self._t0
             left = move.duration - (now - started)
             if left > 1e-9:  # blended: the rest of this move runs on under the next
-                self._blending.append(_Blending(move, now - (move.duration - left)))
+                self._blending.append(Blending(move, now - (move.duration - left)))
             self.commanded = move.end
         self.index += 1
         self._t0 = None
@@ -370,71 +393,3 @@ def _stopped_on_the_way_down(top: float, end: ToolPose, measured: ToolPose, tol:
     something)."""
     over = math.hypot(measured.x - end.x, measured.y - end.y) <= BLOCKED_XY_M
     return over and end.z + tol < measured.z < top - BLOCKED_DROP_M
-
-
-def _braking_move(start: ToolPose, step: Brake) -> LinearMove:
-    """A straight stop from ``step.velocity``: the distance v^2 / (2 a) along it, covered in
-    v / a (a constant deceleration, written as the second half of a move)."""
-    vx, vy, vz = step.velocity
-    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-    if speed < 1e-6:
-        return LinearMove(start, start, Profile.fastest(math.inf, math.inf))
-    distance = speed * speed / (2.0 * step.decel)
-    end = start.offset(vx / speed * distance, vy / speed * distance, vz / speed * distance)
-    return BrakingMove(start, end, Profile.fastest(math.inf, math.inf), speed, step.decel)
-
-
-@dataclass(frozen=True, slots=True)
-class BrakingMove(LinearMove):
-    """Constant deceleration from ``speed`` to rest over the segment start-end."""
-
-    speed: float = 0.0
-    decel: float = 1.0
-
-    @property
-    def duration(self) -> float:
-        return self.speed / self.decel
-
-    def sample(self, t: float) -> ToolPose:
-        t = min(max(t, 0.0), self.duration)
-        covered = self.speed * t - 0.5 * self.decel * t * t
-        length = self.length
-        u = covered / length if length > 0 else 1.0
-        if u >= 1.0 - 1e-12:
-            return self.end
-        a, b = self.start, self.end
-        return a.plus(u * (b.x - a.x), u * (b.y - a.y), u * (b.z - a.z), 0.0)
-
-
-def _opening_stalled(since_command: list[tuple[float, float]], opening: float) -> bool:
-    """Told to open, the fingers have stood still for the last half GRIP_STALL_S short of the
-    opening. ``since_command``: the (time, gap) samples taken since the command."""
-    if len(since_command) < 2:
-        return False
-    t_last, g_last = since_command[-1]
-    span = 0.5 * GRIP_STALL_S
-    if g_last >= opening - GRIP_OPEN_SLACK or t_last - since_command[0][0] < span:
-        return False
-    window = [g for t, g in since_command if t >= t_last - span]
-    return max(window) - min(window) <= GRIP_STILL_SPEED * span
-
-
-def _gripper_done(gaps: list[tuple[float, float]], opening: float, elapsed: float) -> bool:
-    """The fingers are at the commanded opening, or have stopped (closing on a block, say;
-    an opening only within GRIP_OPEN_SLACK of its end).
-
-    ``gaps`` are (time, gap) samples, the first one taken before the command.
-    """
-    t_last, g_last = gaps[-1]
-    if abs(g_last - opening) <= GRIP_AT_POSITION:
-        return True
-    if opening > gaps[0][1] + GRIP_MOVED_M and g_last < opening - GRIP_OPEN_SLACK:
-        return False  # opening, and still short of it
-    first = max((k for k, (t, _) in enumerate(gaps) if t <= t_last - GRIP_STILL_S), default=0)
-    window = gaps[first:]  # the last GRIP_STILL_S, from the sample at or before its start
-    span = t_last - window[0][0]
-    values = [g for _, g in window]
-    still = span >= GRIP_STILL_S - 1e-9 and (
-        max(values) - min(values) <= GRIP_STILL_SPEED * span)
-    moved = abs(g_last - gaps[0][1]) > GRIP_MOVED_M
-    return still and (moved or elapsed >= GRIP_NO_MOTION_S)

@@ -30,7 +30,7 @@ SUITES = {
     "cell": "nodes.bench.cell",
     "unlabeled": "nodes.bench.unlabeled",
     "reference": "nodes.bench.reference",
-    "placement": "nodes.executor.placement_bench",
+    "placement": "nodes.bench.placement",
 }
 
 

@@ -1,13 +1,13 @@
-"""Play executor step scripts on a SimWorld for the sim tests: ``nodes.executor.sim_play``,
+"""Play executor step scripts on a SimWorld for the sim tests: ``nodes.bench.sim_play``,
 an error failing the test."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
+from nodes.bench.sim_play import play as play_steps
+from nodes.bench.sim_play import tool_pose
 from nodes.executor.config import ExecutorConfig
-from nodes.executor.sim_play import play as play_steps
-from nodes.executor.sim_play import tool_pose
 from nodes.executor.steps import Step, StepRunner
 from nodes.sim.world import SimWorld
 

@@ -182,7 +182,7 @@ def test_the_placement_that_stalled_lets_go_at_once(world_factory):
     and as the fingers opened it pressed the pad back into the block; they stopped 2 mm
     open (the executor's "not released" fault). A cube needs at most a quarter turn: now
     the fingers open fully, at once, and the block stands at its goal."""
-    from nodes.executor.sim_play import play as play_steps
+    from nodes.bench.sim_play import play as play_steps
 
     world = world_factory(STALL_BLOCKS, seed=1)
     world.step(24)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from msgs_py import Pose2D
-from nodes.executor.placement_bench import run_scene, yaw_error
+from nodes.bench.placement import run_scene, yaw_error
 
 
 def test_a_half_turn_is_no_yaw_error_and_a_quarter_turn_is():

@@ -1,14 +1,27 @@
-"""Which block the start-of-run camera check grips in place, and how."""
+"""The start-of-run camera check: which block it grips in place, how, and how the run
+goes on after it."""
 
 from __future__ import annotations
 
 import math
 
-from msgs_py import PickPlace, Pose2D, Workspace
+from msgs_py import BlockPose, PickPlace, Plan, Pose2D, Workspace
 from msgs_py.cell import GripperGeometry
 from nodes.executor.camera_check import probe_actions, probe_block, probe_steps
 from nodes.executor.config import ExecutorConfig
+from nodes.executor.core import ExecutorCore
+from nodes.executor.states import State
 from nodes.executor.steps import Grip, Move, Rise
+from tests.unit.executor.world import (
+    CHECKING,
+    GOAL,
+    START,
+    Gripper,
+    World,
+    scene,
+    two_action_plan,
+    xyt,
+)
 
 TABLE = Workspace(0.45, 0.95, -0.35, 0.35)
 GEO = GripperGeometry()
@@ -67,3 +80,59 @@ def test_the_fingers_grip_along_one_axis_then_turn_over_the_block_and_grip_along
     after = [steps[steps.index(g) + 1] for g in grips]
     assert all(isinstance(s, Grip) and s.holds is None and s.opening == 0.085 for s in after)
     assert z == cfg.travel_height
+
+
+def test_the_first_run_grips_the_most_isolated_block_on_both_axes_then_runs_the_plan():
+    core = ExecutorCore(CHECKING)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    # block 1 stands 0.25 m from the workspace's centre, block 2 0.22 m: block 2 is checked
+    assert core.plan.actions[0] == PickPlace(2, START[1].pose, START[1].pose, 0)
+    assert core.report.metrics["camera_check_regrips"] == 2
+    # the check's last word on block 2 is a squared placement where it stood, reported before
+    # any plan action's
+    check = [p for p in world.placements if p.squared]
+    assert len(check) == 1 and world.placements.index(check[0]) < 2
+    assert (check[0].block, check[0].pose) == (2, START[1].pose)
+    # one look at the start, one after the check (not one per grip), one after each action
+    assert len(world.trigger_poses) == 1 + 1 + 3
+    assert core.report.metrics["actions_executed"] == 3 and world.replan_requests == 0
+    # the status counts the plan's actions: 0 of 3 while checking, never negative
+    assert ("running", 0, 3) in world.progress and ("running", 1, 3) in world.progress
+    assert all(0 <= k <= n == 3 for _, k, n in world.progress)
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    # once in the executor's lifetime: a second plan runs without the check
+    core.on_plan(two_action_plan("p2", blocks=[BlockPose(1, *xyt(world.blocks[1])),
+                                               BlockPose(2, *xyt(world.blocks[2]))]))
+    world.run(lambda: core.state is State.DONE and core.plan.plan_id == "p2")
+    assert core.report.metrics["camera_check_regrips"] == 2
+
+
+def test_a_view_corrected_by_the_camera_check_makes_the_plan_replanned():
+    core = ExecutorCore(CHECKING)
+    world = World(core, START)
+    Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.report.metrics.get("camera_check_regrips", 0) == 2)
+    # the detector corrected its calibration from the check's grips: the other block is now
+    # seen 5 mm from where the uncorrected plan had it
+    p = world.blocks[1]
+    world.blocks[1] = Pose2D(p.x + 0.005, p.y, p.theta)
+    world.run(lambda: world.replan_requests > 0)
+    assert core.state is State.REPLANNING and "block 1" in core.report.detail
+
+
+def test_no_camera_check_when_no_block_has_room_for_open_fingers():
+    crowded = [BlockPose(1, 0.70, 0.0, 0.0), BlockPose(2, 0.7538, 0.0, 0.0),
+               BlockPose(3, 0.70, 0.0538, 0.0), BlockPose(4, 0.7538, 0.0538, 0.0)]
+    goal = {b.id: b.pose for b in crowded}
+    plan = Plan((PickPlace(1, crowded[0].pose, Pose2D(0.6, -0.2, 0.0), 0),), plan_id="c",
+                scene=scene(crowded, goal), params={"block_size": 0.0508})
+    core = ExecutorCore(CHECKING)
+    world = World(core, crowded)
+    core.on_plan(plan)
+    world.run(lambda: core.state is State.RUNNING)
+    world.run(lambda: any("camera check skipped" in line for line in world.logs), max_t=1.0)
+    assert len(core.plan.actions) == 1

@@ -13,6 +13,7 @@ seeded per scene.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import statistics
 from dataclasses import dataclass
@@ -21,10 +22,15 @@ from typing import Any
 from msgs_py import PickPlace, Pose2D
 from msgs_py.cell import GripperGeometry
 from nodes.bench.sim_arm import SimArm
+from nodes.bench.sim_play import play
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.primitives import GRASP_SYMMETRY, action_steps
-from nodes.executor.sim_play import play
 from nodes.executor.steps import Grip
+from nodes.planner.config import PlannerConfig
+from nodes.planner.dispatch import plan_goal
+from nodes.sim.config import load_sim_configs
+from nodes.sim.layout import random_sim_scene
+from nodes.sim.world import SimWorld
 
 COLUMNS = ("blocks", "scenes", "placements", "stalls", "yaw_err_median_deg", "yaw_err_p90_deg",
            "yaw_err_max_deg", "pos_err_median_mm", "pos_err_max_mm", "scenes_failed")
@@ -64,14 +70,6 @@ def play_action(world, steps, cfg: ExecutorConfig) -> tuple[int, str]:
 
 def run_scene(blocks: int, density: float, seed: int) -> tuple[list[Placed], str]:
     """Plan scene ``seed`` and play it; (the placements, why it stopped early or "")."""
-    import dataclasses
-
-    from nodes.planner.config import PlannerConfig
-    from nodes.planner.dispatch import plan_goal
-    from nodes.sim.config import load_sim_configs
-    from nodes.sim.layout import random_sim_scene
-    from nodes.sim.world import SimWorld
-
     scene = random_sim_scene(blocks, density, seed)
     outcome = plan_goal(scene, PlannerConfig())
     if outcome.plan is None:

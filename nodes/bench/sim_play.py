@@ -7,33 +7,30 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING
 
+from nodes.bench.sim_arm import SimArm
 from nodes.common.transforms import quaternion_to_matrix, tool_down_quaternion, yaw_of_matrix
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
-from nodes.executor.steps import Step, StepRunner
-
-if TYPE_CHECKING:
-    from nodes.bench.sim_arm import SimArm as SimWorld
+from nodes.executor.steps import Step, StepFaultKind, StepRunner
 
 
-def tool_pose(world: SimWorld) -> ToolPose:
+def tool_pose(world: SimArm) -> ToolPose:
     p, q = world.tcp_pose()
     return ToolPose(*p, yaw_of_matrix(quaternion_to_matrix(q)))
 
 
-def commanded_pose(world: SimWorld) -> ToolPose:
+def commanded_pose(world: SimArm) -> ToolPose:
     """Where the arm was last told to go: a script starts there, as the executor's does (not
     from the measured TCP, which lags the stream: starting there would turn it back)."""
     t = world.commanded_tcp()
     return ToolPose(*t[:3, 3], yaw_of_matrix(t[:3, :3]))
 
 
-def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
-         on_label: Callable[[SimWorld, str], None] = lambda w, label: None,
-         on_tick: Callable[[SimWorld], None] = lambda w: None,
-         on_stall: Callable[[SimWorld, StepRunner], None] | None = None,
+def play(world: SimArm, steps: Sequence[Step], cfg: ExecutorConfig,
+         on_label: Callable[[SimArm, str], None] = lambda w, label: None,
+         on_tick: Callable[[SimArm], None] = lambda w: None,
+         on_stall: Callable[[SimArm, StepRunner], None] | None = None,
          limit_s: float = math.inf) -> tuple[StepRunner, str]:
     """Run ``steps`` to their end, or to the first error; (the runner, the error or "").
 
@@ -50,7 +47,8 @@ def play(world: SimWorld, steps: Sequence[Step], cfg: ExecutorConfig,
             return runner, f"not finished in {limit_s:.0f} s"
         now = world.time_s
         tick = runner.update(now, tool_pose(world), now, [(now, world.fingers.gap())])
-        if tick.stalled and on_stall is not None:
+        stalled = tick.fault is not None and tick.fault.kind is StepFaultKind.STALLED
+        if stalled and on_stall is not None:
             on_stall(world, runner)
             continue
         if tick.error:

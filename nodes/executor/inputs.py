@@ -1,0 +1,89 @@
+"""The executor's inputs: one narrow surface through which everything it senses enters.
+
+``ExecutorInputs`` is every input the core takes, each in the core's own terms (ROS time in
+seconds or nanoseconds, metres, ``msgs_py`` records), whoever produces it: today the
+executor node decodes them from the sim's topics; a separate arm or gripper node, or a
+camera that streams instead of answering a trigger, only changes who calls which. Between
+ticks the node calls these; ``tick(now)`` then acts on them. ``Inbox`` keeps what the arm
+and the gripper last reported for the tick to read.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from msgs_py import BlockSet, Plan
+from msgs_py.status import GripperStatus, SafetyMode
+from nodes.executor.motion import ToolPose
+
+
+class ExecutorInputs(Protocol):
+    """What the executor core is told, and by whom (in the cell as it is now)."""
+
+    def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
+        """The arm: the measured TCP, taken at ``stamp_s`` (ROS time, s; None: now)."""
+
+    def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
+        """The gripper's finger joints: the gap between the pads (m) at ``stamp_s``."""
+
+    def on_gripper(self, reading: GripperStatus) -> None:
+        """The gripper driver's status: gap, request and object detection."""
+
+    def on_safety_mode(self, mode: SafetyMode) -> None:
+        """The arm's controller: a protective stop began or ended."""
+
+    def on_frame_taken(self, stamp_ns: int) -> None:
+        """The camera: the frame the executor asked for was taken at ``stamp_ns``."""
+
+    def on_detection(self, detection: BlockSet) -> None:
+        """The detector: block poses seen in a frame (only one taken after the executor's
+        own request counts as an observation)."""
+
+    def on_plan(self, plan: Plan) -> None:
+        """The planner: a plan (latched; the same one again is ignored)."""
+
+    def on_planner_waiting(self, for_detection: bool) -> None:
+        """The planner: whether it waits for a detection to plan from."""
+
+    def on_planner_failed(self, reason: str) -> None:
+        """The planner: no plan for the executor's replan request."""
+
+    def request_start(self) -> str:
+        """An operator or a goal: start (or resume) a run; the answer in words."""
+
+    def request_stop(self) -> str:
+        """An operator or a goal's cancel: stop safely; the answer in words."""
+
+
+@dataclass
+class Inbox:
+    """What the arm and the gripper reported: the latest TCP and finger gap, and the gap
+    samples and gripper readings since the last tick that used them."""
+
+    tcp: ToolPose | None = None
+    tcp_stamp: float | None = None  #: ROS time (s) the TCP was measured at (None: now)
+    finger_gap: float | None = None
+    gaps: list[tuple[float, float]] = field(default_factory=list)  #: (time s, gap m)
+    readings: list[GripperStatus] = field(default_factory=list)
+
+    def on_tcp(self, pose: ToolPose, stamp_s: float | None) -> None:
+        self.tcp, self.tcp_stamp = pose, stamp_s
+
+    def on_finger_gap(self, gap: float, stamp_s: float | None) -> None:
+        self.finger_gap = gap
+        if stamp_s is not None:
+            self.gaps.append((stamp_s, gap))
+
+    def on_gripper(self, reading: GripperStatus) -> None:
+        self.finger_gap = reading.gap
+        self.gaps.append((reading.stamp_ns * 1e-9, reading.gap))
+        self.readings.append(reading)
+
+    def take_gaps(self) -> list[tuple[float, float]]:
+        gaps, self.gaps = self.gaps, []
+        return gaps
+
+    def take_readings(self) -> list[GripperStatus]:
+        readings, self.readings = self.readings, []
+        return readings

@@ -1,0 +1,215 @@
+"""Observing: out of the camera's view, a frame, and the world judged from its detection.
+
+The arm looks from the park pose, or from the look pose beside the workspace's robot-side
+edge (``near``), where it hides no block. Only a detection of a frame taken after the
+executor's own trigger counts. Once the camera says the frame is taken, the arm may already
+head for the next action's block at travel height (nothing is touched before the world is
+judged). The frame is then judged for its ``Purpose``: every block where it should be after
+an action, a plan that starts from the world, every block at its goal. Idle, without a plan,
+the executor looks now and then for the planner.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from msgs_py import BlockSet, Plan
+from msgs_py.status import ExecutorState as State
+from nodes.executor.act import pick_opening
+from nodes.executor.belief import Belief
+from nodes.executor.config import ExecutorConfig
+from nodes.executor.decisions import (
+    Decision,
+    Enter,
+    Finish,
+    JudgeOnArrival,
+    LookHere,
+    NextAction,
+    Observe,
+    Parked,
+    Replan,
+    Script,
+    StartPlan,
+    Stop,
+    TakeFrame,
+)
+from nodes.executor.motion import ToolPose
+from nodes.executor.primitives import hover_steps, look_steps, park_steps
+from nodes.executor.replan import accept_residual
+from nodes.executor.report import Report
+from nodes.executor.states import Purpose, Tries
+from nodes.executor.verify import deviations
+
+#: A failed grasp is tried again from the newly perceived pose this often, then replanned.
+GRASP_RETRIES = 2
+#: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
+IDLE_LOOK_SOON_S = 0.5
+
+
+@dataclass
+class Camera:
+    """The look under way: what its frame is for, the triggers made for it, and which frame
+    counts (the first taken at or after ``trigger_ns``; None: none asked for)."""
+
+    purpose: Purpose = Purpose.START
+    triggers: int = 0
+    trigger_ns: int | None = None
+    trigger_time: float = 0.0  #: when the last trigger went out (s)
+    frame_taken: bool = False  #: the camera answered it: the arm may move on
+    arrived: BlockSet | None = None  #: the detection, come while the arm moved on
+    want_trigger: bool = False  #: for the next tick's outputs
+    last_idle_look: float | None = None
+
+    def begin(self, purpose: Purpose, keep_tries: bool = False) -> None:
+        self.purpose = purpose
+        if not keep_tries:
+            self.triggers = 0
+        self.trigger_ns = None
+        self.arrived = None
+
+    def trigger(self, now: float) -> None:
+        self.triggers += 1
+        self.trigger_time = now
+        self.trigger_ns = round(now * 1e9)
+        self.frame_taken = False
+        self.want_trigger = True
+
+    def on_frame_taken(self, stamp_ns: int) -> None:
+        """The camera answered the trigger: its frame was taken at ``stamp_ns``."""
+        if self.trigger_ns is not None:
+            self.trigger_ns = max(self.trigger_ns, stamp_ns)
+            self.frame_taken = True
+
+    def accepts(self, detection: BlockSet) -> bool:
+        """Whether ``detection`` is of the frame asked for (then no other counts)."""
+        if self.trigger_ns is None or detection.stamp_ns < self.trigger_ns:
+            return False
+        self.trigger_ns = None
+        return True
+
+
+def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
+            here: ToolPose | None) -> Enter:
+    """Out of view (from ``here``), then a frame for ``d.purpose``."""
+    camera.begin(d.purpose, d.keep_tries)
+    steps = park_steps(cfg)
+    if d.near and belief.scene is not None:
+        assert here is not None
+        steps = look_steps(cfg, belief.scene.workspace, here)
+    return Enter(State.OBSERVING, Script(steps, TakeFrame()))
+
+
+def look_here(d: LookHere, camera: Camera, now: float) -> Enter:
+    """The script ended out of view: the frame for ``d.purpose`` now."""
+    camera.begin(d.purpose)
+    camera.trigger(now)
+    return Enter(State.OBSERVING)
+
+
+def await_detection(camera: Camera, belief: Belief, cfg: ExecutorConfig, report: Report,
+                    now: float) -> Decision | None:
+    """At rest, observing: move on once the frame is taken, or look again (from the park
+    pose) when no detection comes in time, and give up after ``detection_retries``."""
+    if camera.frame_taken:
+        return move_on(camera, belief, cfg)
+    if camera.trigger_ns is None or now - camera.trigger_time < cfg.detection_timeout_s:
+        return None
+    if camera.triggers >= cfg.detection_retries:
+        return Stop(f"no detection after {camera.triggers} camera triggers", failed=True)
+    report.log(f"no detection {cfg.detection_timeout_s:.0f} s after the trigger; "
+               "looking again from the park pose")
+    return Observe(camera.purpose, keep_tries=True)
+
+
+def move_on(camera: Camera, belief: Belief, cfg: ExecutorConfig) -> Enter | None:
+    """The frame is taken: head for the next action's block at travel height while the
+    detection comes (nothing is touched before the world is judged)."""
+    camera.frame_taken = False
+    action = belief.current
+    if not cfg.look_while_moving or action is None or camera.purpose is not Purpose.AFTER_ACTION:
+        return None
+    start = belief.expected.get(action.block)
+    if start is None:
+        return None
+    steps = hover_steps(action, start, belief.geo, cfg, pick_opening(belief, cfg, action, start),
+                        belief.turn_period)
+    return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
+
+
+def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfig,
+                report: Report, pending: Plan | None) -> Decision:
+    """After an action, a recovery or a stop: the world must be as expected. A block not
+    seen is looked for from the park pose, then the run stops; a block off, or a new one,
+    asks for a replan; else the next action (or the ``pending`` plan that came meanwhile, or
+    the goal)."""
+    plan = belief.plan
+    assert plan is not None
+    if 0 < belief.index <= belief.probes:  # a re-grip in place: judged by the detector
+        probed = plan.actions[belief.index - 1].block
+        if probed in belief.perceived:
+            belief.expected[probed] = belief.perceived[probed]
+    off, missing = deviations(belief.perceived, belief.expected, cfg.pos_tolerance,
+                              cfg.yaw_tolerance)
+    if missing:
+        if camera.triggers < cfg.detection_retries:
+            report.log(f"blocks {missing} not seen; looking again from the park pose")
+            return Observe(camera.purpose, keep_tries=True)
+        return Stop(f"block(s) {missing} are no longer seen by the camera (taken away?); "
+                    "every other block is left as it stands", failed=True)
+    newcomers = sorted(set(belief.perceived) - set(belief.expected))
+    if not (off or newcomers) and tries.grasps > GRASP_RETRIES:
+        return Replan(f"the grasp of block {plan.actions[belief.index].block} missed "
+                      f"{tries.grasps} times")
+    if off or newcomers:
+        why = "; ".join([d.describe() for d in off[:3]]
+                        + [f"block {b} appeared" for b in newcomers[:3]])
+        done = "the camera check" if 0 < belief.index <= belief.probes else \
+            f"action {belief.index - belief.probes}"
+        return Replan(f"after {done}: {why}")
+    belief.expected = dict(belief.perceived)
+    if pending is not None:
+        return StartPlan(pending)
+    if belief.index < len(plan.actions):
+        return NextAction()
+    if camera.purpose is not Purpose.GOAL:
+        return Observe(Purpose.GOAL)  # the last look is from the park pose: the run ends there
+    return verify_goal(belief, cfg, report)
+
+
+def verify_goal(belief: Belief, cfg: ExecutorConfig, report: Report) -> Decision:
+    """Every block at its goal: done; else a replan (an empty plan that leaves blocks within
+    the acceptance tolerance of their goal: done, the residual named)."""
+    plan = belief.plan
+    assert plan is not None
+    if plan.scene is None:
+        return Finish("plan has no scene to verify against")
+    errors = belief.goal_errors()
+    report.goal_errors(errors)
+    off = [d for d in errors
+           if d.position_error > cfg.pos_tolerance or d.yaw_error > cfg.yaw_tolerance]
+    if off:
+        if not plan.actions:
+            accepted = accept_residual(belief, cfg, report,
+                                       "the planner leaves them as they stand (an empty plan)")
+            if accepted is not None:
+                return accepted
+        return Replan("goal not reached: " + "; ".join(d.describe() for d in off[:3]))
+    return Finish(f"every block verified at its goal ({len(errors)} blocks)")
+
+
+def look_while_idle(camera: Camera, cfg: ExecutorConfig, parked: bool, hands_full: bool,
+                    wants_frame: bool, now: float) -> Enter | None:
+    """No plan yet (or the planner waits for a frame): park, and show the planner the blocks
+    with the arm out of view, every ``idle_look_period_s`` (every IDLE_LOOK_SOON_S while the
+    planner waits). Not with a block in the fingers: parked, it would be carried out of the
+    cell; it is set down once a plan gives the workspace."""
+    period = cfg.idle_look_period_s
+    if period <= 0 or hands_full:
+        return None
+    if not parked:
+        return Enter(State.IDLE, Script(park_steps(cfg), Parked()))
+    due = min(period, IDLE_LOOK_SOON_S) if wants_frame else period
+    if camera.last_idle_look is None or now - camera.last_idle_look >= due:
+        camera.last_idle_look = now
+        camera.want_trigger = True
+    return None

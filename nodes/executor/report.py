@@ -1,0 +1,52 @@
+"""What the executor tells about its run: the detail and last error of its status, its log
+lines and its figures (counts, and the simulated time per activity)."""
+
+from __future__ import annotations
+
+import math
+
+from nodes.executor.ledger import TimeLedger
+from nodes.executor.supervision import FaultKind
+from nodes.executor.verify import Deviation
+
+
+class Report:
+    """The status's words and figures, and the log lines of the current tick."""
+
+    def __init__(self) -> None:
+        self.detail = ""
+        self.last_error = ""
+        self.metrics: dict[str, float] = {
+            "actions_executed": 0.0, "replans": 0.0, "observations": 0.0,
+            "execution_time_s": 0.0, "faults": 0.0,
+        }
+        self.ledger = TimeLedger()
+        self._log: list[str] = []
+
+    def log(self, line: str) -> None:
+        """A line for the node's log (handed on by the next tick)."""
+        self._log.append(line)
+
+    def say(self, detail: str) -> None:
+        """``detail`` is what the executor does now: in the status, and logged."""
+        self.detail = detail
+        self.log(detail)
+
+    def take_log(self) -> list[str]:
+        lines, self._log = self._log, []
+        return lines
+
+    def count(self, name: str, by: float = 1.0) -> None:
+        self.metrics[name] = self.metrics.get(name, 0.0) + by
+
+    def count_fault(self, kind: FaultKind) -> None:
+        """One more fault, in the total and in its kind's count (``faults_<kind>``)."""
+        self.count("faults")
+        self.count(f"faults_{kind.name.lower()}")
+
+    def goal_errors(self, errors: list[Deviation]) -> None:
+        """Keep the worst perceived goal errors (position m, yaw deg) in the figures."""
+        if errors:
+            self.metrics["final_pos_err_max_m"] = max(d.position_error for d in errors)
+            self.metrics["final_yaw_err_max_deg"] = math.degrees(
+                max(d.yaw_error for d in errors))

@@ -1,0 +1,76 @@
+"""Acting: the next action as a script from the perceived poses, and what follows it."""
+
+from __future__ import annotations
+
+import pytest
+
+from msgs_py import Pose2D
+from msgs_py.status import ExecutorState as State
+from nodes.executor import act
+from nodes.executor.belief import Belief
+from nodes.executor.decisions import ActionDone, Enter, LookHere, Observe, Stop
+from nodes.executor.primitives import look_pose
+from nodes.executor.report import Report
+from nodes.executor.states import Purpose, Tries
+from nodes.executor.steps import Move
+from tests.unit.executor.world import CFG, START, WS, two_action_plan
+
+
+def running(index: int = 0) -> Belief:
+    """The two-action plan (three actions) at action ``index``, every block where it began."""
+    belief = Belief()
+    belief.adopt(two_action_plan())
+    belief.index = index
+    belief.expected = {b.id: b.pose for b in START}
+    return belief
+
+
+def test_an_action_on_a_block_not_seen_stops_the_run_naming_it():
+    belief = running()
+    del belief.expected[1]
+    decision = act.next_action(belief, CFG, Report())
+    assert decision == Stop("action 1 moves block 1, which is not seen", failed=True)
+
+
+def test_an_action_starts_where_its_block_is_seen_and_ends_at_the_look_pose_but_the_last():
+    belief, report = running(), Report()
+    seen = Pose2D(0.552, -0.199, 0.31)  # 2 mm from the plan's start
+    belief.expected[1] = seen
+    decision = act.next_action(belief, CFG, report)
+    assert isinstance(decision, Enter) and decision.state is State.RUNNING
+    assert isinstance(decision.script.then, ActionDone)
+    assert belief.picked_from == seen and belief.expected[1] == belief.plan.actions[0].to
+    descent = next(s for s in decision.script.steps if s.label == "block 1: descend (last cm)")
+    assert (descent.target.x, descent.target.y) == (seen.x, seen.y)
+    last = decision.script.steps[-1]
+    assert isinstance(last, Move) and last.target == look_pose(CFG, WS, last.target)
+    assert report.detail == "action 1/3: pick_place block 1"
+    belief = running(index=2)
+    belief.expected[2] = belief.plan.actions[2].from_
+    final = act.next_action(belief, CFG, Report())
+    assert final.script.steps[-1].label == "block 2: retreat"  # looked at from the park pose
+
+
+def test_the_fingers_open_wide_only_around_a_block_with_room_for_them():
+    belief = running()
+    pick = belief.plan.actions[0]
+    wide = act.pick_opening(belief, CFG, pick, START[0].pose)
+    assert wide == pytest.approx(0.0508 + 2 * CFG.pick_clearance)
+    belief.expected[2] = Pose2D(START[0].x + 0.075, START[0].y, 0.3)  # a neighbour 2 cm away
+    assert act.pick_opening(belief, CFG, pick, START[0].pose) is None
+    assert act.pick_opening(belief, CFG, belief.plan.actions[2], START[1].pose) is None  # push
+
+
+@pytest.mark.parametrize("index, stop_requested, expected", [
+    (0, False, LookHere(Purpose.AFTER_ACTION)),  # the script ended at the look pose
+    (2, False, Observe(Purpose.GOAL)),  # the last action: looked at from the park pose
+    (0, True, Stop("stop requested", failed=False)),
+])
+def test_an_action_done_is_counted_and_looked_at_or_a_stop_follows(index, stop_requested,
+                                                                    expected):
+    belief, report, tries = running(index), Report(), Tries(grasps=2, release_stalls=1)
+    decision = act.action_done(belief, CFG, report, tries, stop_requested)
+    assert decision == expected
+    kind = belief.plan.actions[index].type
+    assert report.metrics["actions_executed"] == 1 and report.metrics[f"{kind}_executed"] == 1
+    assert belief.index == index + 1 and (tries.grasps, tries.release_stalls) == (0, 0)
