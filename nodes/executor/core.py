@@ -24,8 +24,8 @@ from collections.abc import Callable
 from typing import Any
 
 from msgs_py import BlockSet, ExecutorStatus, Plan
+from msgs_py.status import ArmStatus, GripperStatus
 from msgs_py.status import ExecutorState as State
-from msgs_py.status import GripperStatus, SafetyMode
 from nodes.executor import act, faults, observe, recover, replan, stop
 from nodes.executor.belief import Belief
 from nodes.executor.config import ExecutorConfig
@@ -49,7 +49,7 @@ from nodes.executor.decisions import (
     Then,
     VerifyGoal,
 )
-from nodes.executor.faults import ProtectiveStop
+from nodes.executor.faults import ArmHold
 from nodes.executor.inputs import Inbox
 from nodes.executor.ledger import activity_of
 from nodes.executor.motion import ToolPose
@@ -75,7 +75,7 @@ class ExecutorCore:
         self.planner = PlannerLink()
         self.tries = Tries()
         self.report = Report()
-        self.guard = ProtectiveStop()
+        self.guard = ArmHold()
         self.supervisor = GraspSupervisor(self.belief.geo.block_size)
         self._start_requested = cfg.auto_start
         self._stop_requested = False
@@ -127,9 +127,9 @@ class ExecutorCore:
     def on_gripper(self, reading: GripperStatus) -> None:
         self.inbox.on_gripper(reading)
 
-    def on_safety_mode(self, mode: SafetyMode) -> None:
+    def on_arm_status(self, status: ArmStatus) -> None:
         """Handled by the next tick."""
-        if self.guard.on_safety_mode(mode):
+        if self.guard.on_arm_status(status):
             self.report.count("protective_stops")
 
     def on_frame_taken(self, stamp_ns: int) -> None:
@@ -205,7 +205,7 @@ class ExecutorCore:
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
         if self.guard.engaged:
-            self._protective_stop()
+            self._arm_held()
         elif self.player.busy:
             self._play(now)
         elif self.state is not State.IDLE and self.state in self._at_rest:
@@ -253,17 +253,18 @@ class ExecutorCore:
     def _finished(self, then: Then) -> None:
         self._decide(self._on_end[type(then)](then))
 
-    def _protective_stop(self) -> None:
-        """While stopped: ask for the unlock. Unlocked: go on from where the arm stands."""
+    def _arm_held(self) -> None:
+        """While held: stream nothing (a protective stop: ask for the unlock). Free again: go
+        on from where the arm stands."""
         if self.guard.reason is not None:
-            self.guard.ask_unlock(self._now, self.report, self._out)
+            self.guard.while_held(self._now, self.report, self._out)
             return
-        why = self.guard.take_cleared()
+        protective, why = self.guard.protective, self.guard.take_cleared()
         self.player.commanded = self.inbox.tcp  # the arm stands here: the next script starts there
         if self.player.busy:  # else nothing was moving (a hand pressed on the tool): carry on
-            self._decide(faults.after_protective_stop(
-                why, self.state, self.belief, self.player, self.tries, self.camera.purpose,
-                self.inbox.tcp, self.cfg, self.report))
+            self._decide(faults.after_arm_hold(
+                why, protective, self.state, self.belief, self.player, self.tries,
+                self.camera.purpose, self.inbox.tcp, self.cfg, self.report))
 
     def _decide(self, decision: Decision | None) -> None:
         """Follow ``decision`` through the handlers to the next state and script."""

@@ -16,8 +16,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from msgs_py.placement import Placement
+from msgs_py.status import ArmStatus, GripperStatus
 from msgs_py.status import ExecutorState as State
-from msgs_py.status import GripperStatus, SafetyMode
 from nodes.executor.belief import Belief
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.decisions import (
@@ -187,10 +187,15 @@ def blocked_descent(why: str, belief: Belief, report: Report) -> Observe:
     block is then set down at a free spot, and the run goes on from what the camera sees."""
     report.count("blocked_descents")
     report.log(f"{why}: something is in the way below; backing up and looking again")
+    _not_moved_yet(belief)
+    return Observe(Purpose.RECOVERY, near=True)
+
+
+def _not_moved_yet(belief: Belief) -> None:
+    """Stopped before the block was lifted: it still stands where it was picked from."""
     action = belief.current
     if belief.held is None and action is not None and belief.picked_from is not None:
-        belief.expected[action.block] = belief.picked_from  # not moved
-    return Observe(Purpose.RECOVERY, near=True)
+        belief.expected[action.block] = belief.picked_from
 
 
 def blocked_set_apart(why: str, tries: Tries, report: Report) -> Observe:
@@ -204,45 +209,58 @@ def blocked_set_apart(why: str, tries: Tries, report: Report) -> Observe:
     return Observe(Purpose.RECOVERY, near=True)
 
 
-# --- protective stops --------------------------------------------------------------------------
+# --- the arm held ------------------------------------------------------------------------------
 @dataclass
-class ProtectiveStop:
-    """The arm controller's protective stop: why it stopped the arm (while it lasts), why
-    it had stopped it (once unlocked, until handled), and when the unlock was asked for."""
+class ArmHold:
+    """The arm node says the arm cannot move. A protective stop the executor unlocks; any
+    other hold (the program stopped, joint states lost, the arm not yet started) it waits
+    out. Why the arm is held (while it lasts), why it was (once it can move, until handled),
+    and when the unlock was asked for."""
 
     reason: str | None = None
+    protective: bool = False
     cleared: str | None = None
     unlock_asked_at: float | None = None
 
     @property
     def engaged(self) -> bool:
-        """A stop lasts, or one that ended is still to be handled."""
+        """A hold lasts, or one that ended is still to be handled."""
         return self.reason is not None or self.cleared is not None
 
-    def on_safety_mode(self, mode: SafetyMode) -> bool:
-        """The arm stopped, or the stop ended; True when a new stop began."""
-        if mode.stopped and self.reason is None:
-            self.reason = mode.reason or "protective stop"
+    def on_arm_status(self, status: ArmStatus) -> bool:
+        """The arm can move, or it is held and why; True when a protective stop began."""
+        if status.ready or status.state == "paused":  # paused: setpoints are still taken
+            if self.reason is not None:
+                self.cleared, self.reason = self._described(), None
+            return False
+        began = status.protective_stop and not (self.reason is not None and self.protective)
+        if began or self.reason is None:
             self.unlock_asked_at = None
-            return True
-        if not mode.stopped and self.reason is not None:
-            self.cleared, self.reason = self.reason, None
-        return False
+        self.protective = status.protective_stop
+        self.reason = status.reason or status.state.replace("_", " ")
+        return began
 
-    def ask_unlock(self, now: float, report: Report, out: Outputs) -> None:
-        """While stopped: stream nothing (the arm refuses setpoints), ask for the unlock
-        (again every UNLOCK_RETRY_S)."""
+    def _described(self) -> str:
+        return f"protective stop: {self.reason}" if self.protective else (
+            f"arm held: {self.reason}")
+
+    def while_held(self, now: float, report: Report, out: Outputs) -> None:
+        """Stream nothing (the arm refuses setpoints); for a protective stop, ask for the
+        unlock (again every UNLOCK_RETRY_S)."""
         asked = self.unlock_asked_at
-        if asked is None or now - asked >= UNLOCK_RETRY_S:
+        if self.protective and (asked is None or now - asked >= UNLOCK_RETRY_S):
             if asked is None:
-                report.log(f"protective stop: {self.reason}; unlocking the arm")
-            self.unlock_asked_at = now
+                report.log(f"{self._described()}; unlocking the arm")
             out.unlock_arm = True
-        report.detail = f"protective stop: {self.reason}"
+        elif asked is None:
+            report.log(f"{self._described()}; waiting until the arm can move")
+        if asked is None or (self.protective and now - asked >= UNLOCK_RETRY_S):
+            self.unlock_asked_at = now
+        report.detail = self._described()
 
     def take_cleared(self) -> str:
-        """The stop is unlocked: why it had stopped the arm, now handled."""
-        why, self.cleared = f"protective stop: {self.cleared}", None
+        """The arm can move again: why it had been held, now handled."""
+        why, self.cleared = self.cleared or "", None
         return why
 
 
@@ -274,21 +292,25 @@ def let_go_on_the_table(why: str, state: State, then: Then | None, belief: Belie
                                           Recovered(look_for)))
 
 
-def after_protective_stop(why: str, state: State, belief: Belief, player: Player, tries: Tries,
-                          look_for: Purpose, tcp: ToolPose | None, cfg: ExecutorConfig,
-                          report: Report) -> Decision:
-    """Unlocked, with a script under way: drop it and go on from where the arm stands, as
-    after a descent stopped by something below: back up, look, and plan from what the camera
-    sees (a held block that stopped the arm on the table is let go there; a stop under way
-    parks)."""
-    if held_on_the_table(state, belief, tcp, cfg):
-        return let_go_on_the_table(why, state, player.then, belief, cfg, report)
+def after_arm_hold(why: str, protective: bool, state: State, belief: Belief, player: Player,
+                   tries: Tries, look_for: Purpose, tcp: ToolPose | None, cfg: ExecutorConfig,
+                   report: Report) -> Decision:
+    """The arm can move again, with a script under way: drop it and go on from where the arm
+    stands. A protective stop is read as contact, as a descent stopped by something below:
+    back up, look, and plan from what the camera sees (a held block that stopped the arm on
+    the table is let go there). Any other hold says nothing of what is below: back up and
+    look. A stop under way parks."""
     if state is State.STOPPING:
         in_place = isinstance(player.then, Stopped) and player.then.in_place
         return Enter(State.STOPPING, Script(park_steps(cfg), Stopped(in_place)))
-    if state is State.RECOVERING and tries.setting_apart is not None:
-        return blocked_set_apart(why, tries, report)
-    if state is State.RUNNING:
-        return blocked_descent(why, belief, report)
+    if protective:
+        if held_on_the_table(state, belief, tcp, cfg):
+            return let_go_on_the_table(why, state, player.then, belief, cfg, report)
+        if state is State.RECOVERING and tries.setting_apart is not None:
+            return blocked_set_apart(why, tries, report)
+        if state is State.RUNNING:
+            return blocked_descent(why, belief, report)
+    elif state is State.RUNNING:
+        _not_moved_yet(belief)
     report.log(f"{why}: backing up and looking again")
     return Observe(look_for if state is State.OBSERVING else Purpose.RECOVERY, near=True)

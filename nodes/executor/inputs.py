@@ -1,11 +1,10 @@
 """The executor's inputs: one narrow surface through which everything it senses enters.
 
 ``ExecutorInputs`` is every input the core takes, each in the core's own terms (ROS time in
-seconds or nanoseconds, metres, ``msgs_py`` records), whoever produces it: today the
-executor node decodes them from the sim's topics; a separate arm or gripper node, or a
-camera that streams instead of answering a trigger, only changes who calls which. Between
-ticks the node calls these; ``tick(now)`` then acts on them. ``Inbox`` keeps what the arm
-and the gripper last reported for the tick to read.
+seconds or nanoseconds, metres, ``msgs_py`` records), whoever produces it: the executor node
+decodes them from the arm node's, the gripper node's, the camera's and the detector's
+topics. Between ticks the node calls these; ``tick(now)`` then acts on them. ``Inbox`` keeps
+what the arm and the gripper last reported for the tick to read.
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from msgs_py import BlockSet, Plan
-from msgs_py.status import GripperStatus, SafetyMode
+from msgs_py.status import ArmStatus, GripperStatus
 from nodes.executor.motion import ToolPose
 
 
@@ -30,8 +29,9 @@ class ExecutorInputs(Protocol):
     def on_gripper(self, reading: GripperStatus) -> None:
         """The gripper driver's status: gap, request and object detection."""
 
-    def on_safety_mode(self, mode: SafetyMode) -> None:
-        """The arm's controller: a protective stop began or ended."""
+    def on_arm_status(self, status: ArmStatus) -> None:
+        """The arm node: the arm can move, or it is held (a protective stop, a stopped
+        program, lost joint states, the slider at 0) and why."""
 
     def on_frame_taken(self, stamp_ns: int) -> None:
         """The camera: the frame the executor asked for was taken at ``stamp_ns``."""

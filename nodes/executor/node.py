@@ -42,8 +42,6 @@ from msgs_py.ros import (
     planner_status_from_msg,
     stamp_to_ns,
 )
-from msgs_py.status import ArmStatus as ArmStatusRecord
-from msgs_py.status import SafetyMode as SafetyModeRecord
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
@@ -76,16 +74,6 @@ calls:      /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger)"""
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
     """The measured TCP; MessageError names a non-finite field."""
     return ToolPose(*tool_pose_values(msg))
-
-
-def safety_mode_from_arm(status: ArmStatusRecord) -> SafetyModeRecord:
-    """The executor's view of the arm node's status: it moves (ready), or it stands stopped
-    until it can move again (a protective stop the executor unlocks; a stopped program, lost
-    joint states, the slider at 0: the executor waits, then goes on as after a stop)."""
-    if status.ready:
-        return SafetyModeRecord("normal", "", status.stamp_ns)
-    why = status.reason if status.protective_stop else f"{status.state}: {status.reason}"
-    return SafetyModeRecord("protective_stop", why, status.stamp_ns)
 
 
 class ExecutorNode(Node):
@@ -172,7 +160,7 @@ class ExecutorNode(Node):
                                                                          ValueError))
         if status is not None:
             with self.lock:
-                self.core.on_safety_mode(safety_mode_from_arm(status))
+                self.core.on_arm_status(status)
 
     def on_camera_info(self, msg: CameraInfo) -> None:
         """The first frame stamped at or after the executor asked for one: the look's frame

@@ -22,7 +22,17 @@ from sensor_msgs.msg import CameraInfo
 from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
-from msgs_py import BlockPose, BlockSet, Goal, GoalSlot, PickPlace, Plan, Pose2D, Scene
+from msgs_py import (
+    BlockPose,
+    BlockSet,
+    Goal,
+    GoalSlot,
+    PickPlace,
+    Plan,
+    PlannerStatus,
+    Pose2D,
+    Scene,
+)
 from msgs_py import ros as msg_codecs
 from msgs_py.ros import ns_to_stamp
 from msgs_py.scene import Workspace
@@ -185,7 +195,7 @@ def test_malformed_messages_on_every_subscribed_topic_do_not_kill_the_executor(r
     detections = ros.publisher("/blocks/detected", BlockPoseArray, RELIABLE)
     ros.wait_for_subscribers(detections)
     detections.publish(BlockPoseArray(missing_ids=[-1]))
-    bad_status = msg_codecs.planner_status_to_msg(msg_codecs.PlannerStatus("failed"))
+    bad_status = msg_codecs.planner_status_to_msg(PlannerStatus("failed"))
     bad_status.state = 42
     ros.publisher("/planner/status", PlannerStatusMsg, LATCHED).publish(bad_status)
     tcp = ros.publisher("/arm/tcp_pose", PoseStamped, RELIABLE)

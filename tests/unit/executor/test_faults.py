@@ -7,7 +7,7 @@ import math
 import pytest
 
 from msgs_py import Pose2D
-from msgs_py.status import SafetyMode
+from msgs_py.status import ArmStatus
 from nodes.executor import faults
 from nodes.executor.belief import Belief
 from nodes.executor.core import ExecutorCore
@@ -144,12 +144,12 @@ def test_a_protective_stop_on_the_way_down_is_unlocked_then_the_arm_backs_up_and
     core, world = supervised_run_at("descend")
     # a finger lands on a block knocked there: the arm's controller stops it where it is
     stopped_at = core.inbox.tcp
-    core.on_safety_mode(SafetyMode("protective_stop", "246 N on the robot"))
+    core.on_arm_status(ArmStatus("protective_stop", "246 N on the robot"))
     for k in range(3):  # stopped: nothing streamed (it would be refused), one unlock asked
         out = core.tick(world.t_end + (k + 1) * DT)
         assert out.setpoint is None and out.unlock_arm is (k == 0)
     assert "protective stop: 246 N on the robot" in core.report.detail
-    core.on_safety_mode(SafetyMode("normal"))
+    core.on_arm_status(ArmStatus("ready"))
     world.t_end += 3 * DT
     sent = len(world.setpoints)
     world.run(lambda: len(world.setpoints) > sent)
@@ -167,7 +167,7 @@ def test_a_protective_stop_not_unlocked_is_asked_again_each_second():
     world = World(core, START)
     core.on_plan(two_action_plan())
     world.run(lambda: core.state is State.RUNNING)
-    core.on_safety_mode(SafetyMode("protective_stop", "30 N"))
+    core.on_arm_status(ArmStatus("protective_stop", "30 N"))
     asks = [core.tick(world.t_end + k * DT).unlock_arm for k in range(1, 152)]
     assert sum(asks) == 3 and core.state is State.RUNNING
 
@@ -178,9 +178,9 @@ def test_a_held_block_that_stops_the_arm_on_the_table_is_let_go_there():
     block = core.belief.held.block
     low = core.inbox.tcp.with_z(CFG.grasp_height + CFG.place_drop + 0.010)
     core.on_tcp(low)
-    core.on_safety_mode(SafetyMode("protective_stop", "35 N on the robot"))
+    core.on_arm_status(ArmStatus("protective_stop", "35 N on the robot"))
     core.tick(world.t_end + DT)
-    core.on_safety_mode(SafetyMode("normal"))
+    core.on_arm_status(ArmStatus("ready"))
     world.t_end += DT
     world.run(lambda: core.belief.held is None)
     assert any("stands on the table (it slid down in the fingers)" in line for line in world.logs)
@@ -216,3 +216,35 @@ def test_a_step_fault_leads_by_its_kind_and_the_state_to_one_answer(kind, state,
         assert report.last_error == "an earlier error; then why"
     if setting_apart is not None:
         assert tries.apart_blocked == {setting_apart} and tries.setting_apart is None
+
+
+def test_an_arm_not_started_yet_is_waited_for_without_an_unlock_or_a_stop_counted():
+    """The arm node's first status says "stopped" until the robot program runs: the
+    executor streams nothing and asks for no unlock; once ready, the plan is run."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_arm_status(ArmStatus("stopped", "the robot program is not running"))
+    core.on_plan(two_action_plan())
+    ticks = iter(range(100))  # two seconds of ticks
+    world.run(lambda: next(ticks, None) is None)
+    assert world.setpoints == [] and "arm held: the robot program is not running" in (
+        core.report.detail)
+    assert any("waiting until the arm can move" in line for line in world.logs)
+    assert not any("unlocking" in line for line in world.logs)
+    core.on_arm_status(ArmStatus("ready"))
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
+    assert core.state is State.DONE and core.report.metrics.get("protective_stops", 0) == 0
+
+
+def test_a_hold_mid_motion_backs_up_and_looks_without_reading_it_as_contact():
+    core, world = supervised_run_at("descend")
+    core.on_arm_status(ArmStatus("no_joint_states", "joint states stale for 0.5 s"))
+    assert all(core.tick(world.t_end + (k + 1) * DT).setpoint is None for k in range(3))
+    core.on_arm_status(ArmStatus("ready"))
+    world.t_end += 3 * DT
+    world.run(lambda: core.state is State.OBSERVING)
+    assert core.report.metrics.get("blocked_descents", 0) == 0
+    assert any("arm held: joint states stale for 0.5 s: backing up and looking again" in line
+               for line in world.logs)
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
+    assert core.state is State.DONE and core.report.metrics.get("protective_stops", 0) == 0

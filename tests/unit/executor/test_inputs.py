@@ -16,7 +16,7 @@ def test_the_core_takes_every_input_of_the_surface_as_documented():
     surface = {name: fn for name, fn in vars(ExecutorInputs).items()
                if callable(fn) and not name.startswith("_")}
     assert {"on_tcp", "on_gripper", "on_frame_taken", "on_detection",
-            "on_safety_mode"} <= set(surface)
+            "on_arm_status"} <= set(surface)
     for name, fn in surface.items():
         assert list(inspect.signature(getattr(ExecutorCore, name)).parameters) == list(
             inspect.signature(fn).parameters), name
