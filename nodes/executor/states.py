@@ -2,7 +2,7 @@
 
 The states are ``msgs_py.status.ExecutorState`` (what ``/executor/status`` publishes, the
 one list the goal handling and the codecs use too); ``TRANSITIONS`` lists every change the
-executor may make, with its reason (``ExecutorCore`` refuses any other; the README prints
+executor may make, with its reason (``ExecutorCore`` refuses any other; docs/nodes.md prints
 the table). ``Purpose`` says what a frame is judged against, ``Held`` what the fingers hold,
 ``Tries`` how often something was tried, ``Outputs`` what a tick hands the node.
 """
@@ -135,7 +135,7 @@ class Tries:
 
 
 def transitions_markdown() -> str:
-    """``TRANSITIONS`` as the Markdown table the README shows (a test keeps the two equal)."""
+    """``TRANSITIONS`` as the Markdown table docs/nodes.md shows (a test keeps the two equal)."""
     lines = ["| from | to | when |", "| --- | --- | --- |"]
     for source, targets in TRANSITIONS.items():
         for target, why in targets.items():

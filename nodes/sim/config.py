@@ -71,7 +71,7 @@ class SimConfig:
     home_joints: tuple = param(list(HOME_JOINTS), "arm joints at start and after /sim/reset "
                                "(the park pose)", unit="rad")
     park_position: tuple = param(list(PARK_POSITION), "park TCP position for the executor "
-                                 "(tool down; informational, published in the README)", unit="m")
+                                 "(tool down; informational)", unit="m")
     lost_margin: float = param(0.02, "a resting block whose centre is this far outside the "
                                "workspace counts as lost", unit="m")
     seed: int = param(0, "seed of the cell's randomness (pixel noise, block-to-block spread)")

@@ -88,9 +88,9 @@ def test_the_documented_rearrange_goal_is_the_default_scenes_goal():
     check_layout(layout, BlockSet(scene.blocks), ExecutorConfig().safe_box)
 
 
-def test_the_readme_state_table_is_the_executors():
+def test_the_documented_state_table_is_the_executors():
     from nodes.executor.states import transitions_markdown
 
-    shown = re.search(r"<!-- transitions -->\n(.*?)\n<!-- /transitions -->", README, re.S)
-    assert shown, "README lacks the <!-- transitions --> table"
+    shown = re.search(r"<!-- transitions -->\n(.*?)\n<!-- /transitions -->", NODES, re.S)
+    assert shown, "docs/nodes.md lacks the <!-- transitions --> table"
     assert shown.group(1).strip() == transitions_markdown()

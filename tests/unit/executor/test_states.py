@@ -15,7 +15,7 @@ def test_the_state_table_covers_every_state_and_names_every_change():
 
 def test_the_executor_publishes_the_message_layers_own_states():
     """One enum: the executor's states are the status's, a status given a word keeps the
-    member, and the README's table names every change by the states' words."""
+    member, and the table of docs/nodes.md names every change by the states' words."""
     assert State is ExecutorState
     assert ExecutorStatus("observing").state is State.OBSERVING
     table = transitions_markdown()

@@ -13,8 +13,8 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from nodes.common.paths import config_path
 from nodes.cell.launch import PROFILES, load_cell
+from nodes.common.paths import config_path
 
 
 def _nodes(context, *args, **kwargs):

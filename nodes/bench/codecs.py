@@ -1,7 +1,7 @@
 """Which codec for ``/camera/image_raw/compressed``: size, encode and decode time, and what
 the detector measures on the decoded frame, for PNG and JPEG on the sim's own frames.
 
-``python -m nodes.tools.codec_bench --seeds 16 --json docs/bench/image_codecs.json``: the
+``python -m nodes.bench.codecs --seeds 16 --json docs/bench/image_codecs.json``: the
 frames of ``densepack-bench perception`` (the arm parked), each encoded, decoded and given to
 the detector as a bag replay would give it; ``raw`` is the frame itself.
 """
@@ -18,6 +18,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from msgs_py.ros import image as image_codecs
+from nodes.bench.perception import evaluate
+from nodes.bench.sim_frames import sim_frames
+from nodes.detector.config import DetectorConfig
 
 #: (name, codec, PNG level or JPEG quality); ``raw`` is the uncompressed frame.
 VARIANTS = (("raw", None, 0), ("png 1", "png", 1), ("png 9", "png", 9),
@@ -33,11 +36,8 @@ def encode(pixels: np.ndarray, codec: str, level: int):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    from nodes.bench.perception import evaluate
-    from nodes.bench.sim_frames import sim_frames
-    from nodes.detector.config import DetectorConfig
-
-    parser = argparse.ArgumentParser(prog="codec_bench", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nodes.bench.codecs",
+                                     description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=16)
     parser.add_argument("--json", default=None, help="write the rows here")
     opts = parser.parse_args(args)
@@ -73,7 +73,7 @@ def main(args: Sequence[str] | None = None) -> int:
               f"{row['yaw_err_median_deg']:.3f}/{row['yaw_err_max_deg']:.3f} deg", flush=True)
     if opts.json:
         with open(opts.json, "w") as out:
-            json.dump({"command": "python -m nodes.tools.codec_bench " + " ".join(args or
+            json.dump({"command": "python -m nodes.bench.codecs " + " ".join(args or
                                                                                    sys.argv[1:]),
                        "rows": rows}, out, indent=1)
             out.write("\n")
