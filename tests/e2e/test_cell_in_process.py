@@ -38,7 +38,7 @@ def test_four_blocks_reach_their_grid_through_the_action_after_a_cancel(ros, tmp
     goals.wait_feedback(lambda f: f.state == "running", timeout=300)
     ros.wait_for_message("/gripper/status", GripperStatus,
                          lambda m: m.object == GripperStatus.OBJECT_STOPPED_CLOSING, timeout=120)
-    ros.wait_for_message("/tcp_pose", PoseStamped, lambda m: m.pose.position.z > 0.05,
+    ros.wait_for_message("/arm/tcp_pose", PoseStamped, lambda m: m.pose.position.z > 0.05,
                          timeout=60)  # lifting it: carrying
     wait_future(first.cancel_goal_async(), "cancel")
     status, canceled = goals.result(first, timeout=180)
