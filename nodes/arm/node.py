@@ -17,7 +17,6 @@ import sys
 import threading
 from typing import Any
 
-from builtin_interfaces.msg import Time
 from densepack_interfaces.msg import ArmStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
@@ -30,6 +29,7 @@ from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 
 from msgs_py import MessageError, drivers
 from msgs_py import ros as msg_codecs
+from msgs_py.ros import ns_to_stamp
 from nodes.arm.config import ARM_PARAMETERS, ArmConfig
 from nodes.arm.core import ArmCore, ArmOutputs
 from nodes.common.params import declare_config
@@ -169,12 +169,9 @@ class ArmNode(Node):
             self._call_dashboard(call)
         if out.trajectory is not None:
             snippet = out.trajectory
-            # Unstamped (zero): the controller starts it on receipt. A stamped snippet that
-            # arrives after its last point (this node's clock 80 ms behind the controller's,
-            # as under load) is refused whole, and the arm stops short, then lunges.
             self.pub_command.publish(trajectory_msg(
-                Time(), ur10e.ARM_JOINTS, snippet.times, snippet.positions,
-                snippet.velocities))
+                ns_to_stamp(round(snippet.start_s * 1e9)), ur10e.ARM_JOINTS, snippet.times,
+                snippet.positions, snippet.velocities))
         if out.positions is not None:
             self.pub_command.publish(Float64MultiArray(data=[float(v) for v in out.positions]))
 
