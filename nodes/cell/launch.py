@@ -29,6 +29,7 @@ import yaml
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
+from nodes.cell.respawn import Respawn, RespawnBook
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
 
@@ -55,6 +56,11 @@ class NodeLaunch:
     params_files: tuple[Path, ...] = ()
     parameters: dict[str, Any] = field(default_factory=dict)
     remaps: dict[str, str] = field(default_factory=dict)
+    respawn: Respawn = field(default_factory=Respawn)
+
+    def command(self, extra: Sequence[str] = ()) -> list[str]:
+        """The node's process: ``python -m <module> --ros-args ...``."""
+        return [sys.executable, "-m", self.module, *self.ros_args(extra)]
 
     def ros_args(self, extra: Sequence[str] = ()) -> list[str]:
         args = ["--ros-args"]
@@ -105,7 +111,11 @@ def load_cell(path: Path, only: Sequence[str] = (), extra_params: dict[str, Any]
         params.update(extra_params or {})
         params.update((node_params or {}).get(name, {}))
         remaps = {str(k): str(v) for k, v in (spec.get("remap") or {}).items()}
-        launches.append(NodeLaunch(name, module, files, params, remaps))
+        try:
+            respawn = Respawn.from_spec(name, spec)
+        except ValueError as err:
+            raise SystemExit(f"densepack-cell: {path}: {err}") from None
+        launches.append(NodeLaunch(name, module, files, params, remaps, respawn))
     return launches, missing
 
 
@@ -119,23 +129,25 @@ def _pump(prefix: str, stream: Any, lock: threading.Lock) -> None:
 
 
 def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> int:
+    """Each node its own process until Ctrl-C or SIGTERM; a node that ends is started again
+    if its cell file says ``respawn``, else (or once its respawns are used up) a node that
+    died stops the cell (exit code 1)."""
     env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0",
                **{LAUNCHER_PID_ENV: str(os.getpid())})
     lock = threading.Lock()
+    by_name = {launch.name: launch for launch in launches}
     procs: dict[str, subprocess.Popen] = {}
     pumps: list[threading.Thread] = []
+    book = RespawnBook({launch.name: launch.respawn for launch in launches})
     stop = threading.Event()
 
     def request_stop(*_: Any) -> None:
         stop.set()
 
-    signal.signal(signal.SIGINT, request_stop)
-    signal.signal(signal.SIGTERM, request_stop)
-    for launch in launches:
-        cmd = [sys.executable, "-m", launch.module, *launch.ros_args(extra_ros)]
+    def start(launch: NodeLaunch) -> None:
         proc = subprocess.Popen(
-            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-            start_new_session=True,
+            launch.command(extra_ros), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+            text=True, env=env, start_new_session=True,
         )
         procs[launch.name] = proc
         pump = threading.Thread(target=_pump, args=(launch.name, proc.stdout, lock), daemon=True)
@@ -143,22 +155,26 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
         pumps.append(pump)
         print(f"[cell] started {launch.name} (pid {proc.pid})", flush=True)
 
-    code = 0
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    for launch in launches:
+        start(launch)
     while not stop.is_set():
-        for name, proc in procs.items():
-            rc = proc.poll()
-            if rc is not None and rc != 0:
-                print(f"[cell] node {name} died (exit code {rc}); stopping the cell", flush=True)
-                code = 1
-                stop.set()
-        if all(p.poll() is not None for p in procs.values()):
+        now = time.monotonic()
+        for name, proc in list(procs.items()):
+            if proc.poll() is not None:
+                del procs[name]
+                print(f"[cell] {book.on_exit(name, proc.returncode, now)}", flush=True)
+        for name in book.due(now):
+            start(by_name[name])
+        if book.fatal is not None or not (procs or book.due_at):
             break
         stop.wait(0.2)
     _terminate(procs)
     for pump in pumps:  # forward every line the nodes wrote before they exited
         pump.join(timeout=5.0)
     print("[cell] all nodes stopped", flush=True)
-    return code
+    return 1 if book.fatal is not None else 0
 
 
 def _terminate(procs: dict[str, subprocess.Popen]) -> None:

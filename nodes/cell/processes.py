@@ -6,13 +6,13 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
 from typing import IO, Any
 
 from nodes.cell.launch import NodeLaunch, load_cell
+from nodes.cell.respawn import RespawnBook
 from nodes.common.harness import allocate_domain_id
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
@@ -26,7 +26,8 @@ ACTION_CELL_PARAMS = {"executor": {"auto_start": False}}
 
 class CellRun:
     """The cell's nodes as separate processes, logging to one file (the goal node left out:
-    the run sends its goal on the action)."""
+    the run sends its goal on the action); a node that ends unasked comes back as its cell
+    file's ``respawn`` says (``supervise``)."""
 
     def __init__(self, scene_file: Path, log: IO[str], cell_file: str = "cell.yaml",
                  extra_ros_args: tuple[str, ...] = ()) -> None:
@@ -40,6 +41,7 @@ class CellRun:
         self.log = log
         self.procs: dict[str, subprocess.Popen] = {}
         self.killed: set[str] = set()  # killed on purpose (fault injection), not crashed
+        self.book = RespawnBook({name: launch.respawn for name, launch in self.launches.items()})
         self.pumps: list[threading.Thread] = []
         self.log_lock = threading.Lock()
         self.env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0",
@@ -47,8 +49,7 @@ class CellRun:
 
     def start(self, name: str | None = None) -> None:
         for launch in [self.launches[name]] if name else self.launches.values():
-            cmd = [sys.executable, "-m", launch.module, *launch.ros_args(self.extra)]
-            self.procs[launch.name] = self._spawn(launch.name, cmd)
+            self.procs[launch.name] = self._spawn(launch.name, launch.command(self.extra))
             self.killed.discard(launch.name)
 
     def attach(self, name: str, cmd: list[str]) -> subprocess.Popen:
@@ -67,9 +68,7 @@ class CellRun:
     def _pump(self, name: str, proc: subprocess.Popen) -> None:
         assert proc.stdout is not None
         for line in iter(proc.stdout.readline, ""):
-            with self.log_lock:
-                self.log.write(f"[{name}] {line}")
-                self.log.flush()
+            self._log(f"[{name}] {line}")
 
     def kill(self, name: str) -> None:
         """SIGKILL one node, as a crash would."""
@@ -78,9 +77,22 @@ class CellRun:
         proc.kill()
         proc.wait()
 
-    def died(self) -> list[tuple[str, int]]:
-        return [(n, p.returncode) for n, p in self.procs.items()
-                if n not in self.killed and p.poll() is not None and p.returncode != 0]
+    def supervise(self) -> str | None:
+        """Start again the nodes that ended unasked and may respawn (logged); the reason the
+        cell must stop (a node that died and may not, or no longer), or None."""
+        now = time.monotonic()
+        for name, proc in list(self.procs.items()):
+            if name not in self.killed and proc.poll() is not None:
+                del self.procs[name]
+                self._log(f"[cell] {self.book.on_exit(name, proc.returncode, now)}\n")
+        for name in self.book.due(now):
+            self.start(name)
+        return self.book.fatal
+
+    def _log(self, line: str) -> None:
+        with self.log_lock:
+            self.log.write(line)
+            self.log.flush()
 
     def stop(self, grace_s: float = 15.0) -> None:
         for proc in self.procs.values():

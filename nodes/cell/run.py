@@ -81,9 +81,9 @@ def run(
     try:
         while time.monotonic() - wall0 < timeout_s:
             executor.spin_once(timeout_sec=0.1)
-            crashed = cell.died()
+            crashed = cell.supervise()
             if crashed:
-                notes.append(f"node(s) crashed: {crashed}")
+                notes.append(crashed)
                 outcome = "crashed"
                 break
             sender.step(time.monotonic())

@@ -56,8 +56,7 @@ def main(args: Sequence[str] | None = None) -> int:
     if missing:
         print(f"[cell] not implemented yet, not started: {', '.join(missing)}", flush=True)
     if opts.list and opts.json:
-        print(json.dumps({launch.name: [sys.executable, "-m", launch.module,
-                                        *launch.ros_args(extra_ros)] for launch in launches},
+        print(json.dumps({launch.name: launch.command(extra_ros) for launch in launches},
                          indent=2))
         return 0
     if opts.list or not launches:

@@ -13,7 +13,7 @@ from densepack_interfaces.msg import GoalLayout
 
 from msgs_py.ros import goal_layout_from_msg
 from nodes.common.qos import LATCHED
-from tests.helpers import script
+from tests.helpers import REPO, script, tool
 
 pytestmark = pytest.mark.ros
 
@@ -23,7 +23,7 @@ class Cell:
 
     def __init__(self, *args: str) -> None:
         self.proc = subprocess.Popen(
-            [script("densepack-cell"), *args],
+            [*tool("cell"), *args], cwd=REPO,
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
             env=dict(os.environ, PYTHONUNBUFFERED="1"),
         )
@@ -152,3 +152,29 @@ def _alive(pid: int) -> bool:
             return stat.read().split(")")[1].split()[0] != "Z"  # a zombie has exited
     except FileNotFoundError:
         return False
+
+
+def test_a_node_killed_comes_back_until_its_respawns_are_used_up(tmp_path):
+    """SIGKILL, as a crash: the launcher starts the node again after its delay, logs it, and
+    stops the cell (exit code 1) once the cell file's limit is reached."""
+    cell_file = tmp_path / "cell.yaml"
+    cell_file.write_text("nodes:\n  goal:\n    respawn: true\n    respawn_delay: 0.2\n"
+                         "    respawn_max: 2\n    parameters: {scene_file: scenes/default.yaml}\n")
+    cell = Cell(str(cell_file))
+    try:
+        for k in (1, 2, 3):
+            deadline = time.monotonic() + 60
+            while cell.output.count("published the goal") < k:  # the k-th start's node is up
+                assert time.monotonic() < deadline and cell.proc.poll() is None, cell.output
+                time.sleep(0.05)
+            starts = cell.output.split("[cell] started goal (pid ")
+            assert len(starts) == k + 1, cell.output
+            os.kill(int(starts[-1].split(")")[0]), signal.SIGKILL)
+            if k < 3:
+                cell.wait_for_output(f"respawning in 0.2 s ({k} of 2)")
+        code, out = cell.finish(timeout=60)
+    finally:
+        if cell.proc.poll() is None:
+            cell.proc.kill()
+    assert code == 1, out
+    assert "[cell] node goal exited (code -9); no respawn left (2 used); stopping the cell" in out

@@ -24,7 +24,8 @@ def _nodes(context, *args, **kwargs):
         raise RuntimeError(f"densepack nodes not installed: {missing}")
     return [Node(package="densepack", executable=launch.name, name=launch.name,
                  parameters=[*(str(p) for p in launch.params_files), launch.parameters],
-                 remappings=list(launch.remaps.items()), output="screen")
+                 remappings=list(launch.remaps.items()), output="screen",
+                 respawn=launch.respawn.enabled, respawn_delay=launch.respawn.delay_s)
             for launch in launches]
 
 
