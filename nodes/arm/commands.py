@@ -7,14 +7,14 @@ controller's own small steps, and cuts what it commands into messages:
 * ``snippet(now)``: the next ``horizon_s`` of commanded joint positions and velocities as a
   ``trajectory_msgs/JointTrajectory`` for ur_robot_driver's ``scaled_joint_trajectory_controller``,
   stamped ``now``, one point every ``point_spacing_s``, the last at rest (the controller refuses
-  a trajectory that ends moving). Stamped, so the controller plays it aligned with this node's
-  clock: unstamped snippets (started on receipt, a few ms of jitter each) left placements and
-  pushes in the cell up to 5 mm off (2 of 2 scenes failed against 2 of 2 done, stamped). Each
-  one replaces the last on the controller, which plays it from the state the arm is in, so the
-  arm follows the controller's playback ``horizon_s`` ahead of it being needed, and stops
-  within one point spacing if the snippets stop coming. The controller interpolates between
-  points in C++ at its own rate (500 Hz on a UR), which a Python node cannot match; this is
-  why trajectories are the default.
+  a trajectory that ends moving), then held ``LATE_HOLD_S`` longer. Stamped, so the controller
+  plays it aligned with this node's clock: unstamped snippets (started on receipt, a few ms of
+  jitter each) left placements and pushes in the cell up to 5 mm off (2 of 2 scenes failed
+  against 2 of 2 done, stamped). Each one replaces the last on the controller, which plays it
+  from the state the arm is in, so the arm follows the controller's playback ``horizon_s``
+  ahead of it being needed, and comes to rest where its motion ends if the snippets stop
+  coming. The controller interpolates between points in C++ at its own rate (500 Hz on a
+  UR), which a Python node cannot match; this is why trajectories are the default.
 * ``position(now)``: the commanded joints one period ahead, for the ``forward_position_controller``
   (servoj, one position per message; rclpy's timing makes this coarser: the benchmark
   ``densepack-bench arm`` measures both).
@@ -36,6 +36,12 @@ from nodes.arm.controller import STREAM_GAP_S, ArmController
 
 #: Samples this close (rad) count as the arm standing still.
 AT_REST_RAD = 1e-9
+#: Every snippet ends holding its last position this long (s) after its motion: a snippet that
+#: arrives after its motion's end (this node's clock behind the controller's, as under load:
+#: seen 1-8 times a scene in the cell benchmark) is played from where it stands instead of
+#: refused whole, which stopped the arm short, then lunged it on with the next one. The
+#: sim paces its clock on the motion's end, not the hold's.
+LATE_HOLD_S = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,6 +131,9 @@ class JointStreamer:
         positions = np.array([q for _, q, _ in picked])
         velocities = np.array([v for _, _, v in picked])
         velocities[-1] = 0.0
+        times = (*times, times[-1] + LATE_HOLD_S)
+        positions = np.vstack([positions, positions[-1]])
+        velocities = np.vstack([velocities, velocities[-1]])
         return TrajectorySnippet(now, times, positions, velocities)
 
     def _pick(self, now: float) -> list[tuple[float, np.ndarray, np.ndarray]]:

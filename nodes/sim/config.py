@@ -37,8 +37,9 @@ class SimConfig:
         "second (0 = no floor)")
     lockstep_margin_s: float = param(
         0.03, "while motion commands come, the sim runs as fast as it can but stays this far "
-        "(simulated time) behind the end of the newest one (a trajectory's last point, which "
-        "the arm node keeps within its horizon of the executor's newest setpoint), and waits "
+        "(simulated time) behind the end of the newest one's motion (a trajectory's first point "
+        "of the position it then holds, which the arm node keeps within its horizon of the "
+        "executor's newest setpoint), and waits "
         "there while that command moves the arm, so it never outruns the nodes that command "
         "it; 0 = pace by real_time_factor alone", unit="s")
     motion_controller: str = param(

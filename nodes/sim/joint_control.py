@@ -64,6 +64,19 @@ class Trajectory:
         first = self.points[0].positions
         return any(float(np.max(np.abs(p.positions - first))) > 1e-9 for p in self.points)
 
+    @property
+    def motion_end(self) -> float:
+        """When (s from its start) it reaches the position it then holds to its last point:
+        a commander that pads its snippets with a hold, so a late one is not refused, has
+        still only commanded the motion up to here."""
+        last = self.points[-1].positions
+        end = self.points[-1].time_from_start
+        for point in reversed(self.points):
+            if float(np.max(np.abs(point.positions - last))) > 1e-9:
+                break
+            end = point.time_from_start
+        return end
+
 
 def _per_joint(values: Sequence[float], joint_count: int, what: str, index: int,
                allow_empty: bool) -> str:
@@ -202,12 +215,12 @@ class TrajectoryController:
         return self._current is not None or self._pending is not None
 
     def ends_at(self, now: float) -> tuple[float, bool] | None:
-        """When the trajectory playing (or about to) reaches its last point (s, unscaled),
-        and whether it moves the arm; None: none."""
+        """When the trajectory playing (or about to) ends its motion (s, unscaled: the hold
+        that may follow is not motion commanded), and whether it moves the arm; None: none."""
         traj = self._pending or self._current
         if traj is None:
             return None
-        return (traj.start_s or now) + traj.points[-1].time_from_start, traj.moves
+        return (traj.start_s or now) + traj.motion_end, traj.moves
 
     def update(self, now: float, dt: float, scaling: float, q_measured: np.ndarray,
                v_measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
