@@ -29,7 +29,7 @@ from geometry_msgs.msg import PoseStamped
 from rosgraph_msgs.msg import Clock
 
 from nodes.common.harness import RosHarness, allocate_domain_id
-from nodes.common.standard_msgs import pose_stamped_msg
+from nodes.common.standard_msgs import pose_stamped_msg, stamp_seconds
 from nodes.common.transforms import tool_down_quaternion
 
 COLUMNS = ["interface", "path", "runs", "off_path_mm_max", "off_path_mm_median",
@@ -88,7 +88,7 @@ class Rig:
         self.ros.wait_for_subscribers(self.pub, timeout=60.0)
 
     def _on_clock(self, msg: Any) -> None:
-        self.now = msg.clock.sec + msg.clock.nanosec * 1e-9
+        self.now = stamp_seconds(msg.clock)
 
     def _on_tcp(self, msg: Any) -> None:
         p = msg.pose.position

@@ -45,7 +45,7 @@ from msgs_py.ros import (
 from nodes.common.params import declare_config
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
-from nodes.common.standard_msgs import tool_pose_values
+from nodes.common.standard_msgs import stamp_seconds, tool_pose_values
 from nodes.common.transforms import tool_down_quaternion
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
@@ -134,7 +134,7 @@ class ExecutorNode(Node):
         pose = self._decoded(msg, tool_pose_from_msg, "/arm/tcp_pose", (ValueError,))
         if pose is None:
             return
-        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        stamp = stamp_seconds(msg.header.stamp)
         with self.lock:
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
 

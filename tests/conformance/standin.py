@@ -36,7 +36,7 @@ from msgs_py import drivers
 from msgs_py.cell import GRIPPER_STROKE
 from msgs_py.ros import ns_to_stamp
 from nodes.common.qos import LATCHED, RELIABLE
-from nodes.common.standard_msgs import joint_state_msg, pose_stamped_msg
+from nodes.common.standard_msgs import joint_state_msg, pose_stamped_msg, stamp_seconds
 from nodes.common.transforms import matrix_to_quaternion
 from nodes.robot import gripper_2f85 as g85
 from nodes.robot import ur10e
@@ -95,7 +95,7 @@ class DriverStandIn(Node):
             self.refused.append("program not running")
             return
         order = [names.index(j) for j in ur10e.ARM_JOINTS]
-        start = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9 or self.t
+        start = stamp_seconds(msg.header.stamp) or self.t
         points = [(self.t, self.q.copy())]  # played from where the arm is
         for p in msg.points:
             at = start + p.time_from_start.sec + p.time_from_start.nanosec * 1e-9

@@ -30,7 +30,7 @@ from msgs_py import ros as msg_codecs
 from msgs_py.cell import BLOCK_SIZE
 from nodes.arm.node import ArmNode
 from nodes.common.qos import LATCHED
-from nodes.common.standard_msgs import pose_stamped_msg
+from nodes.common.standard_msgs import pose_stamped_msg, stamp_seconds
 from nodes.common.transforms import tool_down_quaternion
 from nodes.gripper.node import GripperNode
 from nodes.sim.config import HOME_JOINTS, PARK_POSITION
@@ -68,7 +68,7 @@ class Cell:
         self.wait_status("ready", timeout=30)
 
     def _on_clock(self, msg: Clock) -> None:
-        self.now = msg.clock.sec + msg.clock.nanosec * 1e-9
+        self.now = stamp_seconds(msg.clock)
 
     def _on_tcp(self, msg: PoseStamped) -> None:
         p = msg.pose.position
