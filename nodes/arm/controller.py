@@ -15,10 +15,15 @@ plays ``servoj`` commands, which is what the cell's executor expects of its arm:
   positions interpolated between setpoints, so a smooth Cartesian trajectory is followed
   exactly however coarsely it was sampled. Where it would ask a joint for more speed or
   acceleration than the UR10e has, playback slows down: the tool stays on its path and
-  arrives late.
+  arrives late. Where playback fell behind the clock (setpoints that came later than the
+  servo delay, a loaded machine; the joints' limits; a commander that paused), it catches up
+  at up to ``CATCH_UP`` times the stream's pace, within the same limits. Before, a lag once
+  taken was kept: in the cell it grew to 0.5-0.8 s within a run, and every move that waits
+  for the measured tool waited that long.
 * The teach pendant's speed slider (``set_speed_scaling``, a fraction) stretches time the way
   ur_robot_driver's scaled trajectory controller does: the same path, every speed times the
-  fraction, every acceleration times its square; at 0 the arm stands still on its path.
+  fraction, every acceleration times its square; at 0 the arm stands still on its path. The
+  time the slider takes is not caught up afterwards (a UR does not either).
 * A setpoint that starts a stream (after a pause, or the first one) is reached point to
   point: a straight line in joint space, each joint within its velocity and acceleration
   limits, braking to a stop on the target without overshoot.
@@ -50,6 +55,9 @@ class SetpointResult:
 
 #: Setpoints further apart than this (s) do not belong to one stream.
 STREAM_GAP_S = 0.25
+#: Playback that fell behind the clock runs up to this many times the stream's pace until it
+#: is a servo delay behind the stamps again (joint limits still apply).
+CATCH_UP = 1.5
 
 
 class ArmController:
@@ -73,6 +81,7 @@ class ArmController:
         self.now = 0.0
         self.stream: collections.deque[tuple[float, np.ndarray]] = collections.deque()
         self.playback: float | None = None  # stream time being played; None: point to point
+        self._slider_lag = 0.0  # stream time the speed slider has held playback back (s)
         self._stream_start = -math.inf
         self.accepted = 0
         self.rejected = 0
@@ -134,6 +143,7 @@ class ArmController:
             # a new stream: reach its first point point-to-point, then play it back
             self.stream.clear()
             self.playback = None
+            self._slider_lag = 0.0
             self.q_target = q
             self._stream_start = t
         self.stream.append((t, q))
@@ -197,10 +207,17 @@ class ArmController:
 
     def _play(self, dt: float) -> None:
         """Follow the stream ``servo_delay_s`` behind its stamps, slowed where the joints
-        cannot keep up (the path is kept, the timing stretched)."""
+        cannot keep up (the path is kept, the timing stretched), catching up where it fell
+        behind (``CATCH_UP``) but not the time the speed slider took."""
         assert self.playback is not None
-        goal = min(self.now - self.servo_delay_s, self.stream[-1][0])
-        advance = max(0.0, min(dt * self.speed_scaling, goal - self.playback))
+        pace = dt * self.speed_scaling
+        self._slider_lag += dt - pace
+        due = self.now - self.servo_delay_s - self._slider_lag
+        behind = due - self.playback
+        if behind > pace:
+            pace = min(pace * CATCH_UP, behind)
+        goal = min(due, self.stream[-1][0])
+        advance = max(0.0, min(pace, goal - self.playback))
         if advance <= 0.0:
             if self.playback >= self.stream[-1][0]:
                 self._settle(dt)  # played to the newest setpoint: stop on it

@@ -225,7 +225,7 @@ SPEC = NodeSpec(
     "stop unlock for the executor.",
     configs=ARM_PARAMETERS,
     topics=TOPICS,
-    threads=2,
+    threads=1,  # every callback is short (dashboard calls are asynchronous)
 )
 
 

@@ -77,6 +77,20 @@ class Trajectory:
             end = point.time_from_start
         return end
 
+    @property
+    def hold_end(self) -> float:
+        """For a trajectory that holds still: its last point's time, or the one before when
+        the last only pads the hold (a commander's margin for arriving late, as the arm node's
+        snippets end)."""
+        points = self.points
+        if len(points) >= 2 and _same(points[-1], points[-2]):
+            return points[-2].time_from_start
+        return points[-1].time_from_start
+
+
+def _same(a: TrajectoryPoint, b: TrajectoryPoint) -> bool:
+    return float(np.max(np.abs(a.positions - b.positions))) <= 1e-9
+
 
 def _per_joint(values: Sequence[float], joint_count: int, what: str, index: int,
                allow_empty: bool) -> str:
@@ -215,12 +229,15 @@ class TrajectoryController:
         return self._current is not None or self._pending is not None
 
     def ends_at(self, now: float) -> tuple[float, bool] | None:
-        """When the trajectory playing (or about to) ends its motion (s, unscaled: the hold
-        that may follow is not motion commanded), and whether it moves the arm; None: none."""
+        """How far ahead the trajectory playing (or about to) commands the arm (s, unscaled),
+        and whether it moves it; None: none. A moving one commands up to the end of its
+        motion (the hold that may follow is not motion commanded); one that holds still, up
+        to its last point before a trailing pad (``Trajectory.hold_end``)."""
         traj = self._pending or self._current
         if traj is None:
             return None
-        return (traj.start_s or now) + traj.motion_end, traj.moves
+        moves = traj.moves
+        return (traj.start_s or now) + (traj.motion_end if moves else traj.hold_end), moves
 
     def update(self, now: float, dt: float, scaling: float, q_measured: np.ndarray,
                v_measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,17 @@ say what the arm does until their end:
   the executor are never outrun, however loaded the machine; a real arm is given its next
   piece of trajectory in time). A commander that sends nothing for ``stall_wall_s`` of wall
   time has stopped: the floor below applies again.
-* when the newest command holds the arm still, or there is none (the executor waits for a
-  detection or a plan: work whose duration is the machine's, not the robot's), simulated
-  time passes at ``real_time_factor`` against the wall clock, as the real robot's would.
+* while the newest command holds the arm still, the same lockstep holds for as long as the
+  commander keeps sending (it holds the arm while it waits for something the robot does: the
+  fingers closing, the tool settling), but gives up after ``hold_stall_wall_s``: a commander
+  that has gone quiet is waiting for something that is not the robot's.
+* when no command is in force (the executor waits for a detection or a plan: work whose
+  duration is the machine's, not the robot's), simulated time passes at ``real_time_factor``
+  against the wall clock, as the real robot's would.
+
+Without the lockstep on holds, every wait of the executor for the robot ran at the floor, so
+the latency of the nodes' round trip (wall time, longer on a loaded machine) became simulated
+time: the same default run took 84-96 s of simulated time.
 
 ``real_time_factor`` 0 lets it run free (nothing then keeps it from outrunning the
 commanders).
@@ -24,6 +32,8 @@ import time
 
 #: A commander mid-motion that sends nothing this long (wall s) has stopped.
 STALL_WALL_S = 0.5
+#: A commander holding the arm still that sends nothing this long (wall s) has gone quiet.
+HOLD_STALL_WALL_S = 0.1
 #: While waiting for a commander, look again this often (wall s).
 LOCKSTEP_POLL_S = 0.002
 
@@ -32,10 +42,12 @@ class Pacer:
     """Decides whether the sim may take its next physics step, and how long to wait if not."""
 
     def __init__(self, real_time_factor: float, margin: float,
-                 stall_wall_s: float = STALL_WALL_S) -> None:
+                 stall_wall_s: float = STALL_WALL_S,
+                 hold_stall_wall_s: float = HOLD_STALL_WALL_S) -> None:
         self.real_time_factor = float(real_time_factor)
         self.margin = float(margin)
         self.stall_wall_s = float(stall_wall_s)
+        self.hold_stall_wall_s = float(hold_stall_wall_s)
         self.commanded_until: float | None = None
         self.moving = False  #: the newest command moves the arm
         self._command_wall: float | None = None
@@ -71,11 +83,12 @@ class Pacer:
             if sim_time < until - self.margin:
                 self.restart(sim_time, wall_time)  # lockstep progress: the floor counts from here
                 return 0.0
+            patience = self.stall_wall_s if self.moving else self.hold_stall_wall_s
             stalled = (self._command_wall is None
-                       or wall_time - self._command_wall > self.stall_wall_s)
-            if self.moving and not stalled:
+                       or wall_time - self._command_wall > patience)
+            if not stalled:
                 self.restart(sim_time, wall_time)
-                return LOCKSTEP_POLL_S  # the arm is mid-motion: its next command is due
+                return LOCKSTEP_POLL_S  # the commander's next command is due
         if self.real_time_factor <= 0.0:
             return 0.0
         ahead = (sim_time - self._sim0) / self.real_time_factor - (wall_time - self._wall0)

@@ -157,3 +157,60 @@ def test_a_protective_stop_holds_where_measured_and_refuses_setpoints_until_unlo
     assert ctrl.set_setpoint([0.7, 0.0, 0.3], down).accepted
     dp, _ = pose_error(tcp_pose(run(ctrl, 5.0)[-1]), pose_matrix([0.7, 0.0, 0.3], down))
     assert dp < 1e-6
+
+
+def test_playback_that_fell_behind_late_setpoints_catches_up_to_a_servo_delay_behind():
+    """Setpoints that come later than the servo delay starve the playback; it must then make
+    up the time (within the joints' limits), or every later move ends that much late."""
+    start, end = [0.5, -0.3, 0.1], [0.8, 0.3, 0.1]
+    ctrl = ArmController(HOME_JOINTS, servo_delay_s=0.08)
+    quat = tool_down_quaternion(0.0)
+    ctrl.set_setpoint(start, quat, stamp_s=0.0)
+    run(ctrl, 3.0)
+    ctrl.now = 10.0
+    move = LinearMove.plan(ToolPose(*start, 0.0), ToolPose(*end, 0.0), Limits(0.5, 4.0))
+    t, sent, qs, times = 10.0, 0, [], []
+    late_from, late_until = 10.3, 10.6  # nothing arrives in between, then all of it at once
+    while t < 10.0 + move.duration + 1.0:
+        stamp = 10.0 + sent * 0.02
+        while stamp <= t + 1e-12 and not late_from <= t < late_until:
+            p = move.sample(min(stamp - 10.0, move.duration)).position
+            assert ctrl.set_setpoint(p, quat, stamp_s=stamp).accepted
+            sent += 1
+            stamp = 10.0 + sent * 0.02
+        t += DT
+        qs.append(ctrl.step(DT, t)[0])
+        times.append(t)
+    qs = np.array(qs)
+    steps = np.abs(np.diff(qs, axis=0))
+    assert np.all(steps <= np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-3))
+    assert off_line(qs, start, end) < 5e-4
+
+    def lag_at(k: int) -> float:
+        """How far (s of stream time) the arm trails where the stream was at t - delay."""
+        p = tcp_pose(qs[k])[:3, 3]
+        along = float(np.dot(p - np.asarray(start), np.subtract(end, start))
+                      / np.linalg.norm(np.subtract(end, start)))
+        expected = move.sample(times[k] - 0.08 - 10.0)
+        length = float(np.linalg.norm(np.subtract(end, start)))
+        return (expected.position - np.asarray(start)) @ np.subtract(end, start) / length - along
+
+    starved = [k for k, tt in enumerate(times) if abs(tt - late_until) < DT]
+    assert lag_at(starved[0]) > 0.05  # the starved arm fell well behind (metres along)
+    recovered = [k for k, tt in enumerate(times) if abs(tt - (late_until + 0.8)) < DT]
+    assert abs(lag_at(recovered[0])) < 0.003  # back on the stream, a servo delay behind
+
+
+def test_time_the_speed_slider_took_is_not_caught_up():
+    start, end = [0.6, -0.2, 0.1], [0.8, 0.2, 0.1]
+    ctrl = ArmController(HOME_JOINTS, servo_delay_s=0.08)
+    ctrl.set_setpoint(start, tool_down_quaternion(0.0), stamp_s=0.0)
+    run(ctrl, 3.0)
+    ctrl.now = 10.0
+    ctrl.set_speed_scaling(0.5)
+    stream_line(ctrl, start, end, speed=0.5, t0=10.0, tail_s=0.0)
+    ctrl.set_speed_scaling(1.0)
+    before = ctrl.playback
+    run(ctrl, 0.1)
+    # at full speed again the playback goes on at the clock's pace, no faster
+    assert ctrl.playback - before == pytest.approx(0.1, abs=2 * DT)

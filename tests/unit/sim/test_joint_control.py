@@ -118,3 +118,16 @@ def test_forward_position_commands_are_checked_and_held_within_velocity_limits()
     for _ in range(2000):
         q, _ = ctrl.update(dt, dt, 1.0, Q0, np.zeros(6))
     assert np.allclose(q, Q0 + 1.0)
+
+
+def test_the_sim_paces_on_a_motions_end_but_on_a_holds_last_unpadded_point():
+    ctrl = TrajectoryController(Q0)
+    q0, q1 = list(Q0), list(Q0 + 0.1)
+    moving = [(0.02, q0, [0.0] * 6, [], []), (0.06, q1, [0.0] * 6, [], []),
+              (0.08, q1, [0.0] * 6, [], []), (0.58, q1, [0.0] * 6, [], [])]
+    assert not ctrl.receive(list(JOINTS), 10.0, moving, now=10.0)
+    assert ctrl.ends_at(10.0) == (pytest.approx(10.06), True)
+    holding = [(0.02, q1, [0.0] * 6, [], []), (0.08, q1, [0.0] * 6, [], []),
+               (0.58, q1, [0.0] * 6, [], [])]
+    assert not ctrl.receive(list(JOINTS), 10.02, holding, now=10.02)
+    assert ctrl.ends_at(10.02) == (pytest.approx(10.10), False)

@@ -27,12 +27,26 @@ def test_while_the_arm_moves_the_sim_waits_for_its_next_command():
     assert pacer.commanded_until == 5.18 and pacer.moving
 
 
-def test_a_command_that_holds_still_lets_time_pass_at_the_floor():
-    pacer = Pacer(real_time_factor=1.0, margin=0.03)
+def test_a_commander_holding_still_is_waited_for_while_it_keeps_sending():
+    """The executor holds the arm while the fingers close: the robot's time, kept in lockstep
+    so the nodes' latency does not become simulated time."""
+    pacer = Pacer(real_time_factor=1.0, margin=0.03, hold_stall_wall_s=0.1)
     pacer.restart(0.0, wall_time=100.0)
     pacer.on_command(5.08, moving=False, wall_time=100.0)
     assert pacer.wait_before_step(5.0, 100.0) == 0.0
-    assert pacer.wait_before_step(5.07, 100.0) == pytest.approx(0.07, abs=1e-9)  # from 5.0 s
+    assert pacer.wait_before_step(5.05, 100.05) == LOCKSTEP_POLL_S  # its next hold is due
+    pacer.on_command(5.10, moving=False, wall_time=100.06)
+    assert pacer.wait_before_step(5.05, 100.06) == 0.0
+
+
+def test_a_commander_that_goes_quiet_holding_still_lets_time_pass_at_the_floor():
+    pacer = Pacer(real_time_factor=1.0, margin=0.03, hold_stall_wall_s=0.1)
+    pacer.restart(0.0, wall_time=100.0)
+    pacer.on_command(5.08, moving=False, wall_time=100.0)
+    assert pacer.wait_before_step(5.05, 100.05) == LOCKSTEP_POLL_S
+    # quiet for longer than the hold stall: time goes on at the real-time rate
+    assert pacer.wait_before_step(5.05, 100.2) == 0.0
+    assert pacer.wait_before_step(5.4, 100.2) > 0.0
 
 
 def test_a_commander_that_stops_mid_motion_falls_back_to_the_floor():
