@@ -25,8 +25,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
+from nodes.robot import body, ur10e  # noqa: E402
 from nodes.robot import gripper_2f85 as g85  # noqa: E402
-from nodes.robot import ur10e  # noqa: E402
 from nodes.sim import robot_model as rm  # noqa: E402
 
 N_TAGS = 50
@@ -66,31 +66,14 @@ def _shape(kind: str, dims, xyz, rpy=(0, 0, 0), color: str = "blue", collide: bo
     return out
 
 
-HALF_PI = math.pi / 2
-ALONG_X = (0, HALF_PI, 0)  # cylinder axis (z) turned onto x
-ALONG_Y = (HALF_PI, 0, 0)
+def _solid(solid: body.Solid, collide: bool = True) -> str:
+    return _shape(solid.kind, solid.dims, solid.xyz, solid.rpy, solid.color, collide)
 
-# Primitive geometry per link, in the URDF link frame L_i = F_{i-1} Rz(q_i) (z = joint axis).
-# The UR's sideways offsets (shoulder 176 mm, elbow back 137 mm ...) sum to d4 in the DH
-# model; the tubes below sit at those offsets so the body looks and collides like a UR10e.
+
+# Primitive geometry per link (``nodes.robot.body``: the shapes the silhouette the camera
+# sees is computed from too), in the URDF link frame L_i = F_{i-1} Rz(q_i) (z = joint axis).
 LINK_SHAPES: dict[str, list[str]] = {
-    "base_link": [_shape("cylinder", (0.095, 0.06), (0, 0, 0.03), color="grey")],
-    "shoulder_link": [
-        _shape("cylinder", (0.075, 0.115), (0, 0, 0.1807 - 0.0575)),
-        _shape("cylinder", (0.075, 0.15), (0, -0.085, 0.1807), ALONG_Y, "grey"),
-    ],
-    "upper_arm_link": [
-        _shape("cylinder", (0.06, 0.50), (-0.6127 / 2, 0, 0.176), ALONG_X, "grey"),
-        _shape("cylinder", (0.075, 0.12), (-0.6127, 0, 0.12), color="blue"),
-    ],
-    "forearm_link": [
-        _shape("cylinder", (0.045, 0.48), (-0.57155 / 2, 0, 0.045), ALONG_X, "grey"),
-        _shape("cylinder", (0.047, 0.09), (-0.57155, 0, 0.09), color="blue"),
-    ],
-    "wrist_1_link": [_shape("cylinder", (0.046, 0.10), (0, -0.04, 0.17415), ALONG_Y, "blue")],
-    "wrist_2_link": [_shape("cylinder", (0.046, 0.10), (0, 0.04, 0.11985), ALONG_Y, "blue")],
-    "wrist_3_link": [_shape("cylinder", (0.045, 0.045), (0, 0, 0.11655 - 0.0225), color="dark")],
-}
+    link: [_solid(s) for s in solids] for link, solids in body.ARM_SOLIDS.items()}
 LINK_INERTIA_BOX = {
     "shoulder_link": (0.15, 0.15, 0.20),
     "upper_arm_link": (0.70, 0.12, 0.15),
@@ -99,7 +82,7 @@ LINK_INERTIA_BOX = {
     "wrist_2_link": (0.09, 0.12, 0.09),
     "wrist_3_link": (0.09, 0.09, 0.05),
 }
-ARM_LINKS = tuple(LINK_INERTIA_BOX)
+ARM_LINKS = body.ARM_LINKS
 
 
 def _com_in_link_frame(i: int) -> np.ndarray:
@@ -149,26 +132,23 @@ def arm_urdf() -> str:
 
 def gripper_urdf() -> str:
     """2F-85-class gripper in the flange frame (z out of the flange, x = closing axis)."""
-    coupling = 0.011
-    body_h = g85.TCP_OFFSET - g85.FINGER_LENGTH - coupling
+    body_h = body.BODY_HEIGHT
     body_mass = g85.GRIPPER_MASS - 2 * g85.FINGER_MASS
-    body = (_inertial(body_mass, (0, 0, coupling + body_h / 2), (0.12, 0.06, body_h))
-            + _shape("cylinder", (0.0375, coupling), (0, 0, coupling / 2), color="dark")
-            + _shape("box", (0.125, 0.060, body_h), (0, 0, coupling + body_h / 2), color="dark"))
+    gripper = (_inertial(body_mass, (0, 0, body.COUPLING_LENGTH + body_h / 2),
+                         (0.12, 0.06, body_h))
+               + "".join(_solid(s) for s in body.gripper_solids()))
     parts = [_joint("gripper_mount", "fixed", "tool0", "gripper_body", (0, 0, 0), (0, 0, 0)),
-             _link("gripper_body", body)]
-    finger_box = (rm.FINGER_THICKNESS, rm.FINGER_WIDTH, g85.FINGER_LENGTH)
+             _link("gripper_body", gripper)]
     for joint, side in zip(rm.FINGER_JOINTS, (-1, 1), strict=True):
         link = joint.replace("_joint", "")
-        centre = (side * rm.FINGER_THICKNESS / 2, 0, g85.FINGER_LENGTH / 2)
+        finger = body.finger_solid(side, rm.FINGER_THICKNESS, rm.FINGER_WIDTH)
         limit = (f'<limit lower="0" upper="{rm.GRIPPER_STROKE / 2:.6g}" '
                  f'effort="{g85.GRIP_FORCE_RANGE[1]:.6g}" '
                  f'velocity="{g85.CLOSING_SPEED_RANGE[1] / 2:.6g}"/>')
         parts.append(_joint(joint, "prismatic", "gripper_body", link,
-                            (0, 0, g85.TCP_OFFSET - g85.FINGER_LENGTH), (0, 0, 0), (side, 0, 0),
-                            limit))
-        parts.append(_link(link, _inertial(g85.FINGER_MASS, centre, finger_box)
-                           + _shape("box", finger_box, centre, color="dark")))
+                            (0, 0, body.FINGER_BASE_Z), (0, 0, 0), (side, 0, 0), limit))
+        parts.append(_link(link, _inertial(g85.FINGER_MASS, finger.xyz, finger.dims)
+                           + _solid(finger)))
     parts.append(_joint("tcp_joint", "fixed", "gripper_body", "tcp",
                         (0, 0, g85.TCP_OFFSET), (0, 0, 0)))
     parts.append(_link("tcp", _inertial(0.001, (0, 0, 0), (0.01, 0.01, 0.01))))

@@ -59,6 +59,8 @@ def block_set_to_msg(block_set: BlockSet) -> ifc.BlockPoseArray:
     msg.block_size = float_at("block_size", block_set.block_size)
     msg.blocks = [block_pose_to_msg(b, f"blocks[{k}]") for k, b in enumerate(block_set.blocks)]
     msg.missing_ids = [block_id_at(f"missing[{k}]", i) for k, i in enumerate(block_set.missing)]
+    msg.occluded_ids = [block_id_at(f"occluded[{k}]", i)
+                        for k, i in enumerate(block_set.occluded)]
     seen = set(block_set.ids)
     for block_id, error in block_set.reprojection_px.items():
         where = f"reprojection_px[{block_id}]"
@@ -79,6 +81,9 @@ def block_set_from_msg(msg: ifc.BlockPoseArray) -> BlockSet:
     check_unique("blocks", "id", [b.id for b in blocks])
     missing = tuple(block_id_at(f"missing_ids[{k}]", int(i)) for k, i in enumerate(msg.missing_ids))
     check_unique("missing_ids", "", missing)
+    occluded = tuple(block_id_at(f"occluded_ids[{k}]", int(i))
+                     for k, i in enumerate(msg.occluded_ids))
+    check_unique("occluded_ids", "", occluded)
     errors = list(msg.reprojection_error_px)
     if errors and len(errors) != len(blocks):
         raise MessageError("reprojection_error_px", len(errors),
@@ -92,9 +97,10 @@ def block_set_from_msg(msg: ifc.BlockPoseArray) -> BlockSet:
             raise MessageError(f"reprojection_error_px[{k}]", value,
                                "must be >= 0 or UNKNOWN_ERROR")
         reprojection[block.id] = value
-    with field_paths("", [("missing", "missing_ids")]):
+    with field_paths("", [("missing", "missing_ids"), ("occluded", "occluded_ids")]):
         return BlockSet(blocks, stamp_to_ns(msg.header.stamp), msg.header.frame_id,
-                        float_at("block_size", msg.block_size), missing, reprojection)
+                        float_at("block_size", msg.block_size), missing, reprojection,
+                        occluded)
 
 
 # --- workspace, goals, scenes -----------------------------------------------------------------

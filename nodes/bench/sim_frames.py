@@ -85,15 +85,15 @@ def _seed_frames(world: SimWorld, seed: int, lenses: Mapping[str, LensCase],
                                      distortion_model=case.model)
         rng = copy.deepcopy(start)
         image = render_rgb(world.client, camera, noise_std, rng)
-        visible = _fully_visible(world, camera, truth)
+        visible = fully_visible_tags(world, camera, truth)
         yield _frame("parked", name, image, camera, truth, visible)
         for variant in case.variants:
             yield _variant_frame(name, variant, image, camera, truth, visible)
         first = first or (name, image, camera, rng)
     name, parked, camera, rng = first
-    if _arm_over_a_block(world, truth, np.random.default_rng(seed)):
+    if arm_over_a_block(world, truth, np.random.default_rng(seed)):
         image = render_rgb(world.client, camera, noise_std, rng)
-        visible = _fully_visible(world, camera, truth)
+        visible = fully_visible_tags(world, camera, truth)
         frame = _frame("arm over blocks", name, image, camera, truth, visible)
         yield dataclasses.replace(frame, warmup=parked)
 
@@ -131,11 +131,12 @@ def _inside(rect, camera: SimCamera, block) -> bool:
     return bool(np.all((uv >= m) & (uv <= [rect.width - 1 - m, rect.height - 1 - m])))
 
 
-def _arm_over_a_block(world: SimWorld, truth, rng: np.random.Generator) -> bool:
-    """Put the arm's TCP ARM_HOVER_Z over a random block (joints set, no motion); False if
+def arm_over_a_block(world: SimWorld, truth, rng: np.random.Generator,
+                     hover_z: float = ARM_HOVER_Z) -> bool:
+    """Put the arm's TCP ``hover_z`` over a random block (joints set, no motion); False if
     the IK finds no way there."""
     target = truth[int(rng.choice(sorted(truth)))]
-    ik = solve_tcp_ik(pose_matrix([target.x, target.y, ARM_HOVER_Z],
+    ik = solve_tcp_ik(pose_matrix([target.x, target.y, hover_z],
                                   tool_down_quaternion(target.theta)), world.arm_q())
     if not ik.ok:
         return False
@@ -144,7 +145,7 @@ def _arm_over_a_block(world: SimWorld, truth, rng: np.random.Generator) -> bool:
     return True
 
 
-def _fully_visible(world: SimWorld, camera: SimCamera, truth) -> set[int]:
+def fully_visible_tags(world: SimWorld, camera: SimCamera, truth) -> set[int]:
     """Ids whose whole tag square is the block's own pixels in a segmentation render (a
     pinhole render: the square is looked up where the pinhole images it) and whose corners
     the lens images inside the frame."""

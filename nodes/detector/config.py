@@ -17,6 +17,7 @@ from nodes.common.params import param
 from nodes.detector.estimate import ESTIMATORS
 from nodes.detector.id_sets import parse_id_set
 from nodes.detector.tags import REFINEMENTS
+from nodes.robot.silhouette import MARGIN_PX
 
 UNSET_POSITION = (0.0, 0.0, 0.0)
 UNSET_ORIENTATION = (0.0, 0.0, 0.0, 0.0)
@@ -57,6 +58,13 @@ class DetectorConfig:
         True, "compare where the arm reports setting blocks down (/executor/placements) with "
         "where the camera then sees them, and correct the perceived poses when the two "
         "disagree (a bumped or roughly calibrated camera); false: publish as calibrated")
+    robot_occlusion: bool = param(
+        True, "read the robot's joint states (/joint_states, /gripper/joint_states) and "
+        "report the blocks whose tags the arm or the gripper covers in a frame as occluded "
+        "(not judged from it) instead of seen or missing; false: no robot in view")
+    occlusion_margin_px: float = param(
+        MARGIN_PX, "the robot's silhouette and each tag are grown by this before they are "
+        "compared (joint state timing, calibration error, the model's simplicity)", unit="px")
     calibration_file: str = param(
         "camera_calibration.yaml", "calibration YAML read when camera_pose.* is not set "
         "(relative paths are under config/)")

@@ -25,6 +25,7 @@ so that perception and arm agree. Pure logic (numpy), no ROS.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -280,10 +281,8 @@ class HandEye:
         self.pending = still
         if self.correction == PlaneCorrection(cx=self.centre[0], cy=self.centre[1]):
             return raw
-        return BlockSet(tuple(BlockPose(b.id, *_xyt(self.correction.apply(b.pose)))
-                              for b in raw.blocks),
-                        raw.stamp_ns, raw.frame_id, raw.block_size, raw.missing,
-                        raw.reprojection_px)
+        return dataclasses.replace(raw, blocks=tuple(
+            BlockPose(b.id, *_xyt(self.correction.apply(b.pose))) for b in raw.blocks))
 
     def _still_fits(self) -> bool:
         """A correction is in use and places every sample within KEEP_MISFIT_M of where it

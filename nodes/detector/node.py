@@ -27,11 +27,11 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
 from rclpy.node import Node
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from msgs_py import MessageError
+from msgs_py import MessageError, drivers
 from msgs_py.camera import CameraPose, UnsupportedLensModel
 from msgs_py.ros import block_set_to_markers, block_set_to_msg, placement_from_msg, stamp_to_ns
 from msgs_py.ros.image import camera_info_to_camera, image_to_array
@@ -39,10 +39,12 @@ from nodes.common.params import declare_config
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
+from nodes.common.standard_msgs import joint_state_values
 from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.handeye import HandEye
 from nodes.detector.pipeline import BlockDetector
+from nodes.detector.robot_view import RobotPoses
 from nodes.detector.sync import Drop, FrameInbox, PairResult
 from nodes.detector.warning_kinds import WarningKind
 
@@ -75,6 +77,8 @@ class DetectorNode(Node):
         self._state = threading.Lock()  # the detector and hand-eye state: worker vs services
         self._forget = threading.Event()  # the clock went back: forget the blocks seen
         self.hand_eye: HandEye | None = None  # made with the first frame (the camera's view)
+        self.robot = RobotPoses()  # the robot's joint states, for what it covers in a frame
+        self._robot_lock = threading.Lock()
         self._make_interfaces()
         # A sim reset restarts simulated time: frames then carry older stamps, yet are new.
         self._clock_jumped = False
@@ -116,6 +120,10 @@ class DetectorNode(Node):
         self.create_subscription(CameraInfo, "/camera/camera_info", self.on_info, camera,
                                  callback_group=camera_group)
         self.create_service(Trigger, "~/reset", self.on_reset, callback_group=control_group)
+        if self.config.robot_occlusion:
+            for topic in (drivers.JOINT_STATES, drivers.GRIPPER_JOINT_STATES):
+                self.create_subscription(JointState, topic, self.on_joint_state, RELIABLE,
+                                         callback_group=control_group)
         if self.config.correct_from_placements:
             self.create_subscription(Placement, "/executor/placements", self.on_placement,
                                      RELIABLE, callback_group=control_group)
@@ -130,6 +138,15 @@ class DetectorNode(Node):
     def on_info(self, msg: CameraInfo) -> None:
         self._follow_clock_jump()
         self._handle(self.inbox.add_info(stamp_to_ns(msg.header.stamp), msg))
+
+    def on_joint_state(self, msg: JointState) -> None:
+        try:
+            names, positions, stamp = joint_state_values(msg)
+        except MessageError as err:
+            self.warn(WarningKind.JOINT_STATE, f"ignoring a malformed joint state: {err}")
+            return
+        with self._robot_lock:
+            self.robot.on_joint_state(names, positions, stamp)
 
     def on_placement(self, msg: Placement) -> None:
         try:
@@ -197,7 +214,10 @@ class DetectorNode(Node):
                 raise MessageError("image.width x height", (width, height),
                                    f"differs from camera_info ({intrinsics.width} x "
                                    f"{intrinsics.height})")
-            result = self.detector.process(pixels, intrinsics, stamp_ns, image_msg.encoding)
+            with self._robot_lock:
+                robot = self.robot.at(stamp_ns * 1e-9)
+            result = self.detector.process(pixels, intrinsics, stamp_ns, image_msg.encoding,
+                                           robot)
             blocks = self._corrected(result.blocks, intrinsics)
             detected = block_set_to_msg(blocks)
         except UnsupportedLensModel as err:
@@ -214,7 +234,8 @@ class DetectorNode(Node):
         self.frames += 1
         self.get_logger().debug(
             f"frame {stamp_ns} ns: {len(result.blocks.blocks)} blocks, missing "
-            f"{list(result.blocks.missing)}, {1000 * result.detect_s:.1f} ms")
+            f"{list(result.blocks.missing)}, occluded {list(result.blocks.occluded)}, "
+            f"{1000 * result.detect_s:.1f} ms")
 
     def _refuse_lens(self, err: UnsupportedLensModel) -> None:
         """A lens model without maths here: said once per model, every frame skipped."""
@@ -282,8 +303,11 @@ class DetectorNode(Node):
 
 TOPICS = """subscribes: /camera/image_raw (sensor_msgs/Image rgb8; /camera/image_rect with
             image_rectified), /camera/camera_info (sensor_msgs/CameraInfo), paired by
-            identical stamp; /executor/placements (densepack_interfaces/Placement)
-publishes:  /blocks/detected (densepack_interfaces/BlockPoseArray: poses in world, missing ids),
+            identical stamp; /executor/placements (densepack_interfaces/Placement);
+            /joint_states, /gripper/joint_states (sensor_msgs/JointState, by name: what the
+            robot covers in a frame)
+publishes:  /blocks/detected (densepack_interfaces/BlockPoseArray: poses in world, missing
+            and occluded ids),
             /blocks/detected/markers (visualization_msgs/MarkerArray: a CUBE per block, for viewers)
 services:   ~/reset (std_srvs/Trigger): forget the blocks seen so far"""
 

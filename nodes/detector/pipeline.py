@@ -2,10 +2,14 @@
 
 ``BlockDetector`` finds the tags, refuses what cannot be trusted (ids outside the allowed
 set, an id seen twice in one frame, a fit whose reprojection error is above threshold) and
-tells seen blocks from known blocks that are *not* seen in this frame (``missing``): hidden
-by the arm, say. "Known" = the ``expected_ids`` given up front plus every id seen since
-start or since ``reset()``. Every refusal comes back as a ``FrameWarning`` (its kind and
-the text) for the node to log.
+tells seen blocks from known blocks that are *not* seen in this frame. Given the robot's pose
+at the frame's stamp (``nodes.detector.robot_view``), the blocks whose tags the robot covers,
+wholly or partly, are ``occluded``: seen or not, they are not judged from this frame (a
+finger over one side of a tag bends its fitted edge). Known blocks neither seen nor covered
+are ``missing``. "Known" = the ``expected_ids`` given up front plus every id seen since start
+or since ``reset()``; where a block was last seen (uncovered) tells whether the robot covers
+it now. Every refusal comes back as a ``FrameWarning`` (its kind and the text) for the node
+to log.
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ from nodes.detector.camera_model import CameraModel
 from nodes.detector.config import DetectorConfig
 from nodes.detector.estimate import ESTIMATORS
 from nodes.detector.id_sets import format_id_set, parse_id_set
+from nodes.detector.robot_view import RobotPose, covered_blocks
+from nodes.detector.tag_geometry import tag_corners_world
 from nodes.detector.tags import FinderSettings, TagDetection, TagFinder
 from nodes.detector.warning_kinds import WarningKind
 
@@ -68,6 +74,7 @@ class BlockDetector:
         self.allowed = parse_id_set(config.allowed_ids, "allowed_ids")
         self.expected = parse_id_set(config.expected_ids, "expected_ids")
         self.seen: set[int] = set()
+        self.last_seen: dict[int, BlockPose] = {}  #: where each block was last seen uncovered
         self._camera: CameraModel | None = None
 
     @property
@@ -77,6 +84,7 @@ class BlockDetector:
     def reset(self) -> None:
         """Forget the blocks seen so far (a new scene); ``expected_ids`` stay known."""
         self.seen.clear()
+        self.last_seen.clear()
 
     def camera(self, intrinsics: CameraIntrinsics) -> CameraModel:
         if self._camera is None or self._camera.intrinsics != intrinsics:
@@ -84,8 +92,9 @@ class BlockDetector:
         return self._camera
 
     def process(self, image: np.ndarray, intrinsics: CameraIntrinsics, stamp_ns: int,
-                encoding: str = "rgb8") -> FrameResult:
-        """Detect the blocks in one image (H x W [x C], 8 bit) taken at ``stamp_ns``."""
+                encoding: str = "rgb8", robot: RobotPose | None = None) -> FrameResult:
+        """Detect the blocks in one image (H x W [x C], 8 bit) taken at ``stamp_ns``, with
+        the robot at ``robot`` then (None: unknown, nothing counts as covered)."""
         start = time.perf_counter()
         camera = self.camera(intrinsics)
         detections = self.finder.find(to_gray(image, encoding))
@@ -104,6 +113,7 @@ class BlockDetector:
                 "frame: cannot tell the blocks apart, all copies dropped"))
             rejected.update({i: "duplicate" for i in duplicates})
         blocks: list[BlockPose] = []
+        corners: dict[int, np.ndarray] = {}
         reprojection: dict[int, float] = {}
         for det in detections:
             if det.tag_id not in self.allowed or det.tag_id in rejected:
@@ -118,14 +128,32 @@ class BlockDetector:
                     f"{self.config.max_reprojection_px}: dropped"))
                 continue
             blocks.append(BlockPose(det.tag_id, est.x, est.y, est.theta))
+            corners[det.tag_id] = det.corners
             reprojection[det.tag_id] = round(est.reprojection_px, 4)
+        self.seen |= {b.id for b in blocks} | set(rejected)
+        covered = self._covered(camera, robot, corners)
+        blocks = [b for b in blocks if b.id not in covered]
+        self.last_seen.update({b.id: b for b in blocks})
         seen_now = {b.id for b in blocks}
-        self.seen |= seen_now | set(rejected)
-        missing = tuple(sorted(self.known - seen_now))
+        missing = tuple(sorted(self.known - seen_now - covered))
+        occluded = tuple(sorted(covered & self.known))
         block_set = BlockSet(tuple(sorted(blocks, key=lambda b: b.id)), stamp_ns, "world",
-                             self.config.block_size, missing, reprojection)
+                             self.config.block_size, missing,
+                             {i: e for i, e in reprojection.items() if i in seen_now}, occluded)
         return FrameResult(block_set, tuple(warnings), tuple(detections),
                            time.perf_counter() - start, rejected)
+
+    def _covered(self, camera: CameraModel, robot: RobotPose | None,
+                 corners: dict[int, np.ndarray]) -> set[int]:
+        """The known blocks the robot covers in this frame (none without its pose)."""
+        if robot is None or not self.config.robot_occlusion:
+            return set()
+        unseen = {i: p for i, p in self.last_seen.items() if i not in corners}
+        size = self.config.block_size
+        return covered_blocks(
+            robot, camera.project, lambda p: camera.to_camera(p)[:, 2], corners, unseen,
+            lambda b: tag_corners_world(b, size, self.config.tag_size),
+            self.config.occlusion_margin_px)
 
     def describe(self) -> str:
         return (f"refinement={self.config.refinement} decimate={self.config.decimate} "

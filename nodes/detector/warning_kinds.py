@@ -19,3 +19,5 @@ class WarningKind(enum.Enum):
     CLOCK = "clock jumped back"
     # the arm's placements
     PLACEMENT = "malformed placement"
+    # the robot's joint states (what it covers in a frame)
+    JOINT_STATE = "malformed joint state"

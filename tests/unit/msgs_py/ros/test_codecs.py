@@ -536,6 +536,13 @@ def test_duplicate_and_unknown_ids_are_refused():
     refused(msg_codecs.block_set_from_msg, msg, "missing_ids[1]")
     msg.missing_ids = [6, 6]
     refused(msg_codecs.block_set_from_msg, msg, "missing_ids[1]")
+    msg.missing_ids = [6]
+    msg.occluded_ids = [7, 4]
+    refused(msg_codecs.block_set_from_msg, msg, "occluded_ids[1]")
+    msg.occluded_ids = [7, 6]
+    refused(msg_codecs.block_set_from_msg, msg, "occluded_ids[1]")
+    msg.occluded_ids = [7]
+    assert msg_codecs.block_set_from_msg(msg).occluded == (7,)
     result = msg_codecs.rearrange_result_to_msg(
         RearrangeResult("succeeded", block_errors=(BlockError(1, 0, 0), BlockError(2, 0, 0))))
     result.block_errors[1].block_id = 1
