@@ -57,10 +57,10 @@ from nodes.cell.monitor import RunMonitor
 from nodes.cell.processes import CellRun, private_domain, stop_cells_on_sigterm
 from nodes.cell.run import check_goal, run_metrics
 from nodes.cell.run import run as run_cell
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE
 from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
-from nodes.detector.camera_model import load_camera_pose
 from nodes.sim.layout import random_sim_scene
 
 FAULTS = ("none", "executor_restart", "planner_restart", "detector_restart", "nudge",

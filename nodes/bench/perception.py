@@ -46,8 +46,8 @@ import numpy as np
 from msgs_py.camera import CameraPose
 from nodes.bench.perception_frames import LENSES, Frame, scene_for
 from nodes.bench.sim_frames import sim_frames
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
-from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks

@@ -43,6 +43,7 @@ from msgs_py.cell import BLOCK_SIZE, TAG_SIZE
 from msgs_py.ros import stamp_to_ns
 from msgs_py.ros.image import camera_info_to_intrinsics, image_to_array
 from nodes.calibration.arm_routine import ArmCalibration, ArmRoutineConfig
+from nodes.common.camera_model import load_camera_pose, save_camera_pose
 from nodes.common.params import declare_config, describe_config, param
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA, RELIABLE
@@ -50,7 +51,6 @@ from nodes.common.runner import split_ros_args
 from nodes.common.standard_msgs import pose_stamped_msg, tool_pose_values
 from nodes.common.transforms import tool_down_quaternion
 from nodes.detector.calibration import CalibrationResult, calibrate_camera, calibrate_views
-from nodes.detector.camera_model import load_camera_pose, save_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector, to_gray
 from nodes.detector.sync import StampPairer

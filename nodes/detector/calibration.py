@@ -25,8 +25,8 @@ import numpy as np
 
 from msgs_py import BlockPose
 from msgs_py.camera import EQUIDISTANT, CameraIntrinsics
+from nodes.common.camera_model import CameraModel, camera_matrix, dist_coeffs
 from nodes.common.lens import undistort_pixels
-from nodes.detector.camera_model import CameraModel, camera_matrix, dist_coeffs
 from nodes.detector.tag_geometry import BLOCK_SIZE, TAG_SIZE, tag_corners_world
 from nodes.detector.tags import TagDetection
 

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from msgs_py import BlockPose
-from nodes.detector.camera_model import CameraModel
+from nodes.common.camera_model import CameraModel
 from nodes.detector.tag_geometry import (
     BLOCK_SIZE,
     TAG_CORNERS_LOCAL,

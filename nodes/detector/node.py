@@ -35,12 +35,12 @@ from msgs_py import MessageError, drivers
 from msgs_py.camera import CameraPose, UnsupportedLensModel
 from msgs_py.ros import block_set_to_markers, block_set_to_msg, placement_from_msg, stamp_to_ns
 from msgs_py.ros.image import camera_info_to_camera, image_to_array
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.common.standard_msgs import joint_state_values
-from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.handeye import HandEye
 from nodes.detector.pipeline import BlockDetector

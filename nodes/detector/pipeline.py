@@ -23,7 +23,7 @@ import numpy as np
 
 from msgs_py import BlockPose, BlockSet
 from msgs_py.camera import CameraIntrinsics, CameraPose
-from nodes.detector.camera_model import CameraModel
+from nodes.common.camera_model import CameraModel
 from nodes.detector.config import DetectorConfig
 from nodes.detector.estimate import ESTIMATORS
 from nodes.detector.id_sets import format_id_set, parse_id_set

@@ -21,9 +21,9 @@ import numpy as np
 
 from msgs_py import BlockPose
 from msgs_py.camera import DISTORTION_MODEL, NO_DISTORTION, CameraIntrinsics, CameraPose
+from nodes.common.camera_model import CameraModel
 from nodes.common.lens import lens_warp
 from nodes.common.transforms import matrix_to_quaternion
-from nodes.detector.camera_model import CameraModel
 from nodes.detector.tag_geometry import BLOCK_SIZE, TAG_SIZE, local_to_world_xy
 
 TEXTURE_PX_PER_MM = 8.0

@@ -1,8 +1,9 @@
 """Acting: the plan's next action as a script from the perceived poses, and what follows it.
 
 An action starts from where the camera last saw its block (the grasp centred on it, a push
-lengthened or shortened to end where planned); after it the arm looks from the look pose
-beside the workspace, or, after the last one, from the park pose.
+lengthened or shortened to end where planned); after it the arm looks on its way to the next
+block (``look_while_moving``) or from the look pose beside the workspace, and after the last
+one from the park pose.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from nodes.executor.decisions import (
     Decision,
     Enter,
     LookHere,
+    LookOnTheWay,
     NextAction,
     Observe,
     Script,
@@ -28,6 +30,7 @@ from nodes.executor.primitives import action_steps, expected_after, look_steps
 from nodes.executor.recovery import wide_opening
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, Tries
+from nodes.executor.visibility import footprint, neighbours
 
 
 def next_action(belief: Belief, cfg: ExecutorConfig, report: Report) -> Decision:
@@ -69,10 +72,11 @@ def pick_opening(belief: Belief, cfg: ExecutorConfig, action: Action, start: Pos
 
 
 def looks_after(belief: Belief, cfg: ExecutorConfig) -> bool:
-    """Whether the camera looks from the look pose after the current action (the last one
-    is looked at from the park pose)."""
+    """Whether the current action's script ends at the look pose, for the camera to look from
+    there (without looking on the way; the last action is looked at from the park pose)."""
     assert belief.plan is not None
-    return cfg.observe_every_action and belief.index + 1 < len(belief.plan.actions)
+    return (cfg.observe_every_action and not cfg.look_while_moving
+            and belief.index + 1 < len(belief.plan.actions))
 
 
 def action_done(belief: Belief, cfg: ExecutorConfig, report: Report, tries: Tries,
@@ -89,6 +93,12 @@ def action_done(belief: Belief, cfg: ExecutorConfig, report: Report, tries: Trie
     tries.grasps = 0
     tries.release_stalls = 0
     belief.held = None
+    done = plan.actions[belief.index]
+    if belief.picked_from is not None:
+        belief.unverified |= neighbours(
+            belief.expected, footprint(belief.picked_from, belief.expected.get(done.block,
+                                                                               done.to)),
+            cfg.judge_radius)
     looked_from_here = looks_after(belief, cfg) and plan.scene is not None
     belief.index += 1
     if stop_requested:
@@ -98,5 +108,6 @@ def action_done(belief: Belief, cfg: ExecutorConfig, report: Report, tries: Trie
     if belief.index >= len(plan.actions):
         return Observe(Purpose.GOAL)
     if cfg.observe_every_action:
-        return Observe(Purpose.AFTER_ACTION, near=True)
+        return LookOnTheWay() if cfg.look_while_moving else Observe(Purpose.AFTER_ACTION,
+                                                                      near=True)
     return NextAction()

@@ -33,6 +33,9 @@ class Belief:
     held: Held | None = None
     picked_from: Pose2D | None = None  #: where the current action's block stood
     camera_checked: bool = False  #: the start-of-run camera check was made (once a lifetime)
+    #: blocks near where an action acted since the camera last saw them uncovered: what the
+    #: camera says of them now may be out of date
+    unverified: set[int] = field(default_factory=set)
 
     def adopt(self, plan: Plan) -> None:
         """Take ``plan``, from its first action; its params give the gripper's geometry."""

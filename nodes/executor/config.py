@@ -78,8 +78,19 @@ class ExecutorConfig:
         "edge (x_min), where no part of it hides a block from the overhead camera", unit="m")
     look_height: float = param(0.25, "TCP height of the look pose", unit="m")
     look_while_moving: bool = param(
-        True, "after triggering the camera, move on towards the next action at travel height "
-        "while the detection comes (the action starts once it is judged)")
+        True, "judge each action from a frame taken while the arm already travels to the next "
+        "block, at the moment its predicted silhouette leaves in view the blocks the next "
+        "action needs judged; the look pose only when no moment on the way does, or the frame "
+        "shows one covered after all. At the look pose, move on once the frame is taken. The "
+        "action starts once the frame is judged")
+    judge_radius: float = param(
+        0.08, "blocks standing this close to an action's pick, place or push path (centres) "
+        "are judged before it goes down (anything may have moved them since the last frame); "
+        "those near an action done, as soon as a frame shows them", unit="m")
+    calibration_file: str = param(
+        "camera_calibration.yaml", "the camera's pose (the detector's calibration file; "
+        "relative: under config/), to predict when the arm leaves blocks in view; unreadable: "
+        "every action is judged from the look pose")
     pos_tolerance: float = param(
         cell.PLACED_TOLERANCE_XY,
         "a block further than this from its expected pose needs a correction",
@@ -101,7 +112,8 @@ class ExecutorConfig:
         0.015, "the camera check's block: its widest-open fingers clear every neighbour by "
         "this much, for a camera up to this far off", unit="m")
     observe_every_action: bool = param(
-        True, "take a fresh detection after every action, from the look pose (closed loop)")
+        True, "take a fresh detection after every action (closed loop): on the way to the "
+        "next block, or from the look pose")
     detection_timeout_s: float = param(
         6.0, "wait this long for a detection after a camera trigger", unit="s")
     detection_retries: int = param(5, "camera triggers before giving up on a detection")

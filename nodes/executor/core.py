@@ -37,6 +37,7 @@ from nodes.executor.decisions import (
     Halt,
     JudgeOnArrival,
     LookHere,
+    LookOnTheWay,
     NextAction,
     Observe,
     Parked,
@@ -57,9 +58,10 @@ from nodes.executor.observe import Camera
 from nodes.executor.player import Player
 from nodes.executor.recovery import holds_block
 from nodes.executor.replan import PlannerLink
-from nodes.executor.report import Report
+from nodes.executor.report import Report, executor_status
 from nodes.executor.states import PLANS_WAIT_IN, TRANSITIONS, Held, Outputs, Purpose, Tries
 from nodes.executor.supervision import GraspFault, GraspSupervisor
+from nodes.executor.visibility import View
 
 
 class ExecutorCore:
@@ -83,6 +85,9 @@ class ExecutorCore:
         self._started_at: float | None = None
         self._now = 0.0
         self._out = Outputs()
+        #: the camera as known (camera_info, the calibration): to look on the way; None: from
+        #: the look pose (the node sets it)
+        self.view: View | None = None
         #: what a state does on a tick with no script playing (idle: before the arm moves)
         self._at_rest: dict[State, Callable[[], Decision | None]] = {
             State.IDLE: self._idle,
@@ -94,6 +99,8 @@ class ExecutorCore:
         #: who decides what each decision leads to
         self._handlers: dict[type, Callable[[Any], Decision | None]] = {
             Observe: lambda d: observe.observe(d, self.camera, self.belief, cfg, self._here),
+            LookOnTheWay: lambda d: observe.look_on_the_way(
+                self.camera, self.belief, cfg, self.view, self._here, self._now, self.report),
             LookHere: lambda d: observe.look_here(d, self.camera, self._now),
             NextAction: lambda d: act.next_action(self.belief, cfg, self.report),
             StartPlan: lambda d: replan.start_plan(d, self.belief, self.planner, self.tries, cfg,
@@ -163,11 +170,8 @@ class ExecutorCore:
             self._decide(Enter(State.IDLE))
 
     def on_planner_waiting(self, for_detection: bool) -> None:
-        """One that started after the executor's last idle look (or whose subscription had
-        not met the detector's yet) would wait for the next, up to ``idle_look_period_s``,
-        with the simulated clock running: while idle without a plan, and as long as it waits,
-        look often. One restarted while the executor waits for a correcting plan has nothing
-        to plan from either: the executor looks again (``replan.await_plan``)."""
+        """A planner waiting for a frame (started after the last idle look, or restarted
+        while a correcting plan is awaited) gets looks often (``replan.await_plan``)."""
         self.planner.wants_frame = for_detection
 
     def on_planner_failed(self, reason: str) -> None:
@@ -204,6 +208,8 @@ class ExecutorCore:
             self._started_at = now
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
+        if self.state is State.OBSERVING:
+            self.camera.due(now)
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:
@@ -334,6 +340,11 @@ class ExecutorCore:
         block first, then judge the world for that purpose."""
         b, camera = self.belief, self.camera
         b.perceived = {block.id: block.pose for block in detection.blocks}
+        b.unverified -= set(b.perceived)
+        if camera.on_the_way:
+            covered = observe.covered_on_the_way(camera, b, detection, self.report)
+            if covered is not None:
+                return covered
         if b.plan is None:
             return Enter(State.IDLE)
         if b.held is not None:  # something in the fingers: put it down first
@@ -354,34 +365,22 @@ class ExecutorCore:
                                    self.planner.pending)
 
     def _judge_arrived(self) -> Decision | None:
-        """Above the next block: judge the detection that came while the arm moved."""
-        arrived, self.camera.arrived = self.camera.arrived, None
-        return None if arrived is None else self._judge_frame(arrived)
+        """Above the next block: judge the detection that came while the arm moved (none yet:
+        wait for it at rest; on the way, the frame is taken now if its moment has not come)."""
+        camera = self.camera
+        arrived, camera.arrived = camera.arrived, None
+        if arrived is not None:
+            return self._judge_frame(arrived)
+        if camera.trigger_at is not None:  # its moment did not come on the way
+            camera.trigger_at = self._now
+            camera.due(self._now)
+        if camera.on_the_way and camera.trigger_ns is None:  # no frame was needed
+            return observe.go_on(self.planner.pending)
+        return None
 
     # --- status ---------------------------------------------------------------------------------
     def status(self) -> ExecutorStatus:
-        """What ``/executor/status`` says: action k of n counts the plan's actions only (the
-        camera check's re-grips show in the detail)."""
-        b = self.belief
-        total = len(b.plan.actions) if b.plan else 0
-        block = None
-        if b.plan and self.state is State.RUNNING and b.index < total:
-            block = b.plan.actions[b.index].block
-        running = self.state is State.RUNNING and b.index >= b.probes
-        if b.held is not None and b.held.block is not None:
-            block = b.held.block
-        return ExecutorStatus(
-            state=self.state,
-            plan_id=b.plan.plan_id if b.plan else "",
-            action_index=min(max(0, b.index - b.probes) + (1 if running else 0),
-                             total - b.probes),
-            action_total=total - b.probes,
-            block=block,
-            last_error=self.report.last_error,
-            detail=self.report.detail,
-            metrics=dict(self.report.metrics, replans=float(self.planner.replans),
-                         **self.report.ledger.metrics()),
-        )
+        return executor_status(self.state, self.belief, self.report, self.planner.replans)
 
     @property
     def plan(self) -> Plan | None:

@@ -96,6 +96,12 @@ class Observe:
 
 
 @dataclass(frozen=True, slots=True)
+class LookOnTheWay:
+    """After an action: head for the next block and take the frame on the way, at the first
+    moment the arm leaves the blocks to judge in view (none: from the look pose)."""
+
+
+@dataclass(frozen=True, slots=True)
 class LookHere:
     """The arm already stands out of view: take the frame for ``purpose`` now."""
 
@@ -142,5 +148,5 @@ class Stop:
     failed: bool
 
 
-Decision = (Enter | Halt | Observe | LookHere | NextAction | StartPlan | VerifyGoal | Replan
-            | Finish | Stop)
+Decision = (Enter | Halt | Observe | LookOnTheWay | LookHere | NextAction | StartPlan
+            | VerifyGoal | Replan | Finish | Stop)

@@ -32,6 +32,7 @@ from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from msgs_py import ExecutorStatus, MessageError
+from msgs_py.camera import CameraIntrinsics, CameraPose
 from msgs_py.ros import (
     arm_status_from_msg,
     block_set_from_msg,
@@ -42,7 +43,10 @@ from msgs_py.ros import (
     planner_status_from_msg,
     stamp_to_ns,
 )
+from msgs_py.ros.image import camera_info_to_intrinsics
+from nodes.common.camera_model import CameraModel, load_camera_pose
 from nodes.common.params import declare_config
+from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.common.standard_msgs import stamp_seconds, tool_pose_values
@@ -51,6 +55,7 @@ from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
 from nodes.executor.rearrange import RearrangeServer
+from nodes.executor.visibility import View
 
 TOPICS = """\
 subscribes: /plan (densepack_interfaces/Plan, latched),
@@ -93,6 +98,8 @@ class ExecutorNode(Node):
         self.create_subscription(CameraInfo, "/camera/camera_info", self.on_camera_info, CAMERA)
         self.render_pub = self.create_publisher(Header, "/sim/render_request", RELIABLE)
         self._frame_after_ns: int | None = None  # a frame taken since then is the look's
+        self._camera_pose = self._load_camera_pose() if self.config.look_while_moving else None
+        self._intrinsics: CameraIntrinsics | None = None
         self.placement_pub = self.create_publisher(Placement, "/executor/placements", RELIABLE)
         self.create_subscription(PlannerStatusMsg, "/planner/status", self.on_planner_status,
                                  LATCHED)
@@ -163,8 +170,10 @@ class ExecutorNode(Node):
                 self.core.on_arm_status(status)
 
     def on_camera_info(self, msg: CameraInfo) -> None:
-        """The first frame stamped at or after the executor asked for one: the look's frame
-        is taken, the arm may move on (a streaming camera's later frames change nothing)."""
+        """The camera as the executor knows it (to look on the way); the first frame stamped
+        at or after the executor asked for one: the look's frame is taken, the arm may move
+        on (a streaming camera's later frames change nothing)."""
+        self._know_camera(msg)
         wanted = self._frame_after_ns
         stamp = stamp_to_ns(msg.header.stamp)
         if wanted is None or stamp < wanted:
@@ -172,6 +181,30 @@ class ExecutorNode(Node):
         self._frame_after_ns = None
         with self.lock:
             self.core.on_frame_taken(stamp)
+
+    def _know_camera(self, msg: CameraInfo) -> None:
+        """The first camera_info (and any that changes the lens) with the calibration's pose
+        makes the camera model the executor predicts the arm's silhouette with."""
+        if self._camera_pose is None:
+            return
+        intrinsics = self._decoded(msg, camera_info_to_intrinsics, "/camera/camera_info",
+                                   (MessageError, ValueError))
+        if intrinsics is None or intrinsics == self._intrinsics:
+            return
+        self._intrinsics = intrinsics
+        view = View(CameraModel.from_pose(intrinsics, self._camera_pose),
+                    self.core.belief.geo.block_size)
+        with self.lock:
+            self.core.view = view
+
+    def _load_camera_pose(self) -> CameraPose | None:
+        path = config_path(self.config.calibration_file)
+        try:
+            return load_camera_pose(path)
+        except (OSError, MessageError) as err:
+            self.get_logger().warning(f"no camera pose ({path}: {err}): every action is "
+                                      "looked at from the look pose")
+            return None
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:

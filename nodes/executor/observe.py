@@ -1,12 +1,18 @@
-"""Observing: out of the camera's view, a frame, and the world judged from its detection.
+"""Observing: a frame, and the world judged from its detection.
 
-The arm looks from the park pose, or from the look pose beside the workspace's robot-side
-edge (``near``), where it hides no block. Only a detection of a frame taken after the
-executor's own trigger counts. Once the camera says the frame is taken, the arm may already
-head for the next action's block at travel height (nothing is touched before the world is
-judged). The frame is then judged for its ``Purpose``: every block where it should be after
-an action, a plan that starts from the world, every block at its goal. Idle, without a plan,
-the executor looks now and then for the planner.
+After an action the arm looks *on its way* to the next block (``look_on_the_way``): the
+frame is taken at the first moment the arm's predicted silhouette (``visibility``) leaves
+every block to judge in view (the action's block, the blocks near where it acted, and those
+near where the next action will act), and judged once the detector says none of them is
+occluded; the blocks the arm still covers keep what was last seen of them. Only when no moment
+on the way leaves them in view, or the frame shows one covered after all, does the arm look
+from the look pose beside the workspace's robot-side edge (``near``), where it hides no
+block, or from the park pose. Only a detection of a frame taken after the executor's own
+trigger counts. From the look pose, once the camera says the frame is taken, the arm heads
+for the next block at travel height (nothing is touched before the world is judged). The
+frame is judged for its ``Purpose``: every block where it should be after an action, a plan
+that starts from the world, every block at its goal. Idle, without a plan, the executor
+looks now and then for the planner.
 """
 
 from __future__ import annotations
@@ -39,6 +45,13 @@ from nodes.executor.replan import accept_residual
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, Tries
 from nodes.executor.verify import deviations
+from nodes.executor.visibility import (
+    View,
+    best_moment,
+    footprint,
+    neighbours,
+    script_samples,
+)
 
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
 GRASP_RETRIES = 2
@@ -59,6 +72,9 @@ class Camera:
     arrived: BlockSet | None = None  #: the detection, come while the arm moved on
     want_trigger: bool = False  #: for the next tick's outputs
     last_idle_look: float | None = None
+    trigger_at: float | None = None  #: on the way: trigger when the clock gets here (s)
+    on_the_way: bool = False  #: the frame is taken with the arm in view, moving on
+    judge: frozenset[int] = frozenset()  #: on the way: blocks the frame must show uncovered
 
     def begin(self, purpose: Purpose, keep_tries: bool = False) -> None:
         self.purpose = purpose
@@ -66,6 +82,17 @@ class Camera:
             self.triggers = 0
         self.trigger_ns = None
         self.arrived = None
+        self.trigger_at = None
+        self.on_the_way = False
+        self.judge = frozenset()
+
+    def due(self, now: float) -> bool:
+        """Trigger now: the moment picked on the way has come."""
+        if self.trigger_at is None or now < self.trigger_at:
+            return False
+        self.trigger_at = None
+        self.trigger(now)
+        return True
 
     def trigger(self, now: float) -> None:
         self.triggers += 1
@@ -99,6 +126,66 @@ def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
     return Enter(State.OBSERVING, Script(steps, TakeFrame()))
 
 
+def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: View | None,
+                    here: ToolPose | None, now: float, report: Report) -> Decision:
+    """After an action: head for the next action's block at once, and take the frame at the
+    moment on the way that shows the blocks the next action needs judged (and most of the
+    others not seen since an action near them); no such moment: the look pose. Nothing to
+    judge and nothing seen anywhere on the way: no frame at all."""
+    action = belief.current
+    start = None if action is None else belief.expected.get(action.block)
+    if view is None or action is None or start is None or here is None:
+        report.count("looks_from_look_pose")
+        return Observe(Purpose.AFTER_ACTION, near=True)
+    steps = hover_steps(action, start, belief.geo, cfg, pick_opening(belief, cfg, action, start),
+                        belief.turn_period)
+    need = blocks_to_judge(belief, cfg)
+    samples = script_samples(steps, here, cfg.in_safe_box, cfg.convergence_tol)
+    at = best_moment(view, samples, belief.expected, need, set(belief.unverified) - need)
+    camera.begin(Purpose.AFTER_ACTION)
+    if at is None and need:
+        report.count("looks_from_look_pose")
+        return Observe(Purpose.AFTER_ACTION, near=True)
+    camera.on_the_way, camera.judge = True, frozenset(need)
+    if at is not None:
+        report.count("looks_on_the_way")
+        camera.trigger_at = now + at
+    return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
+
+
+def go_on(pending: Plan | None) -> Decision:
+    """Nothing to judge on the way: the next action (or the plan that came meanwhile)."""
+    return StartPlan(pending) if pending is not None else NextAction()
+
+
+def covered_on_the_way(camera: Camera, belief: Belief, detection: BlockSet, report: Report
+                       ) -> Decision | None:
+    """A frame taken on the way: one that shows a block to judge covered by the arm after all
+    calls for a look from the look pose; otherwise the blocks the arm covers keep what was
+    last seen of them (``belief.perceived`` holds the seen ones already)."""
+    covered = sorted(camera.judge & set(detection.occluded))
+    if covered:
+        report.count("looks_from_look_pose")
+        report.log(f"block(s) {covered} covered by the arm in the frame taken on the way: "
+                   "looking from the look pose")
+        return Observe(Purpose.AFTER_ACTION, near=True, keep_tries=True)
+    belief.perceived.update({i: belief.expected[i] for i in detection.occluded
+                             if i in belief.expected})
+    return None
+
+
+def blocks_to_judge(belief: Belief, cfg: ExecutorConfig) -> set[int]:
+    """The blocks the next action needs judged before it goes down: those near where it will
+    act, the block itself among them. It starts from what the camera says of them, and
+    anything may have moved them since the last frame (the last action, a knock): so every
+    one, seen or not since."""
+    nxt = belief.current
+    if nxt is None or nxt.block not in belief.expected:
+        return set()
+    return neighbours(belief.expected, footprint(belief.expected[nxt.block], nxt.to),
+                      cfg.judge_radius)
+
+
 def look_here(d: LookHere, camera: Camera, now: float) -> Enter:
     """The script ended out of view: the frame for ``d.purpose`` now."""
     camera.begin(d.purpose)
@@ -126,7 +213,8 @@ def move_on(camera: Camera, belief: Belief, cfg: ExecutorConfig) -> Enter | None
     detection comes (nothing is touched before the world is judged)."""
     camera.frame_taken = False
     action = belief.current
-    if not cfg.look_while_moving or action is None or camera.purpose is not Purpose.AFTER_ACTION:
+    if (not cfg.look_while_moving or action is None or camera.on_the_way
+            or camera.purpose is not Purpose.AFTER_ACTION):
         return None
     start = belief.expected.get(action.block)
     if start is None:

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import math
 
+from msgs_py import ExecutorStatus
+from msgs_py.status import ExecutorState as State
+from nodes.executor.belief import Belief
 from nodes.executor.ledger import TimeLedger
 from nodes.executor.supervision import FaultKind
 from nodes.executor.verify import Deviation
@@ -50,3 +53,28 @@ class Report:
             self.metrics["final_pos_err_max_m"] = max(d.position_error for d in errors)
             self.metrics["final_yaw_err_max_deg"] = math.degrees(
                 max(d.yaw_error for d in errors))
+
+
+def executor_status(state: State, belief: Belief, report: Report, replans: int
+                    ) -> ExecutorStatus:
+    """What ``/executor/status`` says: action k of n counts the plan's actions only (the
+    camera check's re-grips show in the detail); the block is the one the running action
+    handles, or the one the fingers hold."""
+    b = belief
+    total = len(b.plan.actions) if b.plan else 0
+    block = None
+    if b.plan and state is State.RUNNING and b.index < total:
+        block = b.plan.actions[b.index].block
+    running = state is State.RUNNING and b.index >= b.probes
+    if b.held is not None and b.held.block is not None:
+        block = b.held.block
+    return ExecutorStatus(
+        state=state,
+        plan_id=b.plan.plan_id if b.plan else "",
+        action_index=min(max(0, b.index - b.probes) + (1 if running else 0), total - b.probes),
+        action_total=total - b.probes,
+        block=block,
+        last_error=report.last_error,
+        detail=report.detail,
+        metrics=dict(report.metrics, replans=float(replans), **report.ledger.metrics()),
+    )

@@ -44,3 +44,8 @@ JOINT_TORQUE_LIMIT = (330.0, 330.0, 150.0, 56.0, 56.0, 56.0)
 #: peak, cosine ramps) through over the workspace: their 99.5th-percentile demand is about
 #: 10, 8, 13, 9, 0, 18 rad/s^2; where a stream asks for more, the arm controller slows playback.
 JOINT_ACCELERATION_LIMIT = (12.0, 12.0, 15.0, 20.0, 20.0, 20.0)
+
+#: The elbow-up, wrist-down branch the workspace is reached on, at the cell's park pose (TCP
+#: at (0.25, -0.55, 0.40) m, tool down, closing axis along x): where the sim starts the arm,
+#: and the reference from which the arm's posture over the workspace is predicted.
+WORKING_BRANCH_JOINTS = (1.7050197, -1.3509143, 1.5056703, 1.4160404, 1.5707963, 0.1342234)

@@ -14,6 +14,7 @@ from msgs_py.camera import (
 from nodes.common.params import configs_from_parameters, param, read_params_file
 from nodes.common.paths import config_path
 from nodes.robot import gripper_2f85 as g85
+from nodes.robot import ur10e
 from nodes.sim.camera import DEFAULT_LENS_MODEL, LENS_COEFFICIENTS, SimCamera
 from nodes.sim.joint_control import MOTION_CONTROLLERS
 
@@ -22,7 +23,7 @@ from nodes.sim.joint_control import MOTION_CONTROLLERS
 PARK_POSITION = (0.25, -0.55, 0.40)
 PARK_YAW = 0.0
 #: ``PARK_POSITION`` solved on the elbow-up, wrist-down branch the workspace is reached on.
-HOME_JOINTS = (1.7050197, -1.3509143, 1.5056703, 1.4160404, 1.5707963, 0.1342234)
+HOME_JOINTS = ur10e.WORKING_BRANCH_JOINTS
 
 
 @dataclass(frozen=True)

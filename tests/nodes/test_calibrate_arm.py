@@ -14,8 +14,8 @@ from rclpy.parameter import Parameter
 from msgs_py.camera import CameraPose
 from nodes.arm.node import ArmNode
 from nodes.calibration.cli import CalibrateNode
+from nodes.common.camera_model import CameraModel, load_camera_pose, save_camera_pose
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
-from nodes.detector.camera_model import CameraModel, load_camera_pose, save_camera_pose
 from nodes.gripper.node import GripperNode
 from nodes.sim.config import CameraConfig
 from nodes.sim.node import SimNode

@@ -16,10 +16,10 @@ from sensor_msgs.msg import CameraInfo, Image
 from msgs_py import load_scene
 from msgs_py.ros.image import array_to_image, intrinsics_to_camera_info
 from nodes.calibration.cli import CalibrateNode
+from nodes.common.camera_model import CameraModel, load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA
 from nodes.common.transforms import rotation_angle
-from nodes.detector.camera_model import CameraModel, load_camera_pose
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
 from tests.helpers import script
 

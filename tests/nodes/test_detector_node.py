@@ -18,10 +18,10 @@ from visualization_msgs.msg import Marker, MarkerArray
 from msgs_py import BlockPose
 from msgs_py.ros import block_set_from_msg, ns_to_stamp, stamp_to_ns
 from msgs_py.ros.image import array_to_image, intrinsics_to_camera_info
+from nodes.common.camera_model import CameraModel
 from nodes.common.lens import rectified_camera
 from nodes.common.qos import CAMERA as CAMERA_QOS
 from nodes.common.qos import camera_qos
-from nodes.detector.camera_model import CameraModel
 from nodes.detector.node import DetectorNode
 from nodes.detector.sync import Drop
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks

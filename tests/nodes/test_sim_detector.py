@@ -13,10 +13,10 @@ from sensor_msgs.msg import CameraInfo
 from msgs_py.ros import block_set_from_msg, stamp_to_ns
 from nodes.bench.perception_frames import LENSES
 from nodes.calibration.cli import CalibrateNode
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.qos import camera_qos
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
-from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.node import DetectorNode
 from nodes.sim.node import SimNode
 

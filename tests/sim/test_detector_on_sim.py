@@ -13,11 +13,11 @@ import pytest
 from msgs_py import load_scene
 from msgs_py.camera import CameraIntrinsics
 from msgs_py.ros.image import camera_info_to_camera, intrinsics_to_camera_info
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.lens import rectify
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
 from nodes.detector.calibration import calibrate_camera
-from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 from nodes.detector.pipeline import BlockDetector
 from nodes.detector.tags import TagFinder

@@ -16,9 +16,9 @@ from nodes.bench.cell import (
     free_spot_in,
     is_success,
 )
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix
-from nodes.detector.camera_model import load_camera_pose
 from nodes.sim.layout import random_sim_scene
 
 

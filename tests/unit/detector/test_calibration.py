@@ -10,10 +10,10 @@ import pytest
 
 from msgs_py import BlockPose, load_scene
 from nodes.bench.perception_frames import LENSES
+from nodes.common.camera_model import CameraModel
 from nodes.common.paths import config_path
 from nodes.common.transforms import rotation_angle
 from nodes.detector.calibration import View, calibrate_camera, calibrate_views
-from nodes.detector.camera_model import CameraModel
 from nodes.detector.synthetic import RenderStyle, overhead_camera, render_blocks
 from nodes.detector.tags import TagFinder
 

@@ -11,7 +11,7 @@ import pytest
 
 from msgs_py import MessageError
 from msgs_py.camera import CameraIntrinsics, CameraPose
-from nodes.detector.camera_model import CameraModel, load_camera_pose, save_camera_pose
+from nodes.common.camera_model import CameraModel, load_camera_pose, save_camera_pose
 from nodes.detector.synthetic import overhead_camera
 
 

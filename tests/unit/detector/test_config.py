@@ -8,9 +8,9 @@ import pytest
 import yaml
 
 from nodes.calibration.cli import CalibrateConfig
+from nodes.common.camera_model import load_camera_pose
 from nodes.common.params import config_overrides
 from nodes.common.paths import config_path
-from nodes.detector.camera_model import load_camera_pose
 from nodes.detector.config import DetectorConfig
 
 

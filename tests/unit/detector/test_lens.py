@@ -9,8 +9,8 @@ import pytest
 
 from msgs_py.camera import CameraIntrinsics
 from msgs_py.ros.image import camera_info_to_camera, intrinsics_to_camera_info
+from nodes.common.camera_model import CameraModel
 from nodes.common.lens import distort_pixels, rectified_camera, rectify, undistort_pixels
-from nodes.detector.camera_model import CameraModel
 from nodes.detector.tag_geometry import tag_corners_world
 from nodes.sim.config import CameraConfig
 from tests.unit.detector.lenses import BLOCKS, MODELS, POINTS, sim_camera, sim_pose

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from msgs_py import Pose2D
 from msgs_py.status import ExecutorState as State
 from nodes.executor import act
 from nodes.executor.belief import Belief
-from nodes.executor.decisions import ActionDone, Enter, LookHere, Observe, Stop
+from nodes.executor.decisions import ActionDone, Enter, LookHere, LookOnTheWay, Observe, Stop
 from nodes.executor.primitives import look_pose
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, Tries
@@ -32,22 +34,35 @@ def test_an_action_on_a_block_not_seen_stops_the_run_naming_it():
     assert decision == Stop("action 1 moves block 1, which is not seen", failed=True)
 
 
-def test_an_action_starts_where_its_block_is_seen_and_ends_at_the_look_pose_but_the_last():
+def test_an_action_starts_where_its_block_is_seen_and_ends_lifted_off_it():
     belief, report = running(), Report()
     seen = Pose2D(0.552, -0.199, 0.31)  # 2 mm from the plan's start
     belief.expected[1] = seen
     decision = act.next_action(belief, CFG, report)
+    assert isinstance(decision, Enter) and decision.state is State.RUNNING
+    descent = next(s for s in decision.script.steps if s.label == "block 1: descend (last cm)")
+    assert (descent.target.x, descent.target.y) == (seen.x, seen.y)
+    # looked at on the way to the next block: the script ends as the arm retreats
+    assert decision.script.steps[-1].label == "block 1: retreat"
+
+
+def test_without_looking_on_the_way_an_action_ends_at_the_look_pose_but_the_last():
+    cfg = dataclasses.replace(CFG, look_while_moving=False)
+    belief, report = running(), Report()
+    seen = Pose2D(0.552, -0.199, 0.31)  # 2 mm from the plan's start
+    belief.expected[1] = seen
+    decision = act.next_action(belief, cfg, report)
     assert isinstance(decision, Enter) and decision.state is State.RUNNING
     assert isinstance(decision.script.then, ActionDone)
     assert belief.picked_from == seen and belief.expected[1] == belief.plan.actions[0].to
     descent = next(s for s in decision.script.steps if s.label == "block 1: descend (last cm)")
     assert (descent.target.x, descent.target.y) == (seen.x, seen.y)
     last = decision.script.steps[-1]
-    assert isinstance(last, Move) and last.target == look_pose(CFG, WS, last.target)
+    assert isinstance(last, Move) and last.target == look_pose(cfg, WS, last.target)
     assert report.detail == "action 1/3: pick_place block 1"
     belief = running(index=2)
     belief.expected[2] = belief.plan.actions[2].from_
-    final = act.next_action(belief, CFG, Report())
+    final = act.next_action(belief, cfg, Report())
     assert final.script.steps[-1].label == "block 2: retreat"  # looked at from the park pose
 
 
@@ -61,15 +76,17 @@ def test_the_fingers_open_wide_only_around_a_block_with_room_for_them():
     assert act.pick_opening(belief, CFG, belief.plan.actions[2], START[1].pose) is None  # push
 
 
-@pytest.mark.parametrize("index, stop_requested, expected", [
-    (0, False, LookHere(Purpose.AFTER_ACTION)),  # the script ended at the look pose
-    (2, False, Observe(Purpose.GOAL)),  # the last action: looked at from the park pose
-    (0, True, Stop("stop requested", failed=False)),
+@pytest.mark.parametrize("index, stop_requested, on_the_way, expected", [
+    (0, False, True, LookOnTheWay()),  # looked at on the way to the next block
+    (0, False, False, LookHere(Purpose.AFTER_ACTION)),  # the script ended at the look pose
+    (2, False, True, Observe(Purpose.GOAL)),  # the last action: looked at from the park pose
+    (0, True, True, Stop("stop requested", failed=False)),
 ])
 def test_an_action_done_is_counted_and_looked_at_or_a_stop_follows(index, stop_requested,
-                                                                    expected):
+                                                                    on_the_way, expected):
+    cfg = dataclasses.replace(CFG, look_while_moving=on_the_way)
     belief, report, tries = running(index), Report(), Tries(grasps=2, release_stalls=1)
-    decision = act.action_done(belief, CFG, report, tries, stop_requested)
+    decision = act.action_done(belief, cfg, report, tries, stop_requested)
     assert decision == expected
     kind = belief.plan.actions[index].type
     assert report.metrics["actions_executed"] == 1 and report.metrics[f"{kind}_executed"] == 1

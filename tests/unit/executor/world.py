@@ -47,10 +47,13 @@ class World:
     """Perfect arm tracking; the camera sees what the executor expects, plus any disturbance."""
 
     def __init__(self, core: ExecutorCore, blocks, camera_delay=0.3, camera_works=True,
-                 answers_trigger=False, hides: Callable[[ToolPose], set[int]] | None = None):
+                 answers_trigger=False, hides: Callable[[ToolPose], set[int]] | None = None,
+                 occludes: Callable[[ToolPose], set[int]] | None = None):
         self.core = core
         self.answers_trigger = answers_trigger  # the camera's answer: "frame taken at ..."
         self.hides = hides or (lambda tool: set())  # blocks the arm hides from the camera
+        #: blocks the detector reports the robot covering (occluded) with the tool here
+        self.occludes = occludes or (lambda tool: set())
         self.trigger_poses: list[ToolPose] = []
         self.setpoints: list[tuple[float, str, ToolPose]] = []
         self.gripper: Gripper | None = None
@@ -114,16 +117,19 @@ class World:
             if out.trigger_camera and self.camera_works:
                 tool = self.core.player.commanded
                 self.trigger_poses.append(tool)
-                hidden = self.hides(tool)
-                self.pending.append((t + self.camera_delay, round(t * 1e9), frozenset(hidden)))
+                hidden = frozenset(self.hides(tool))
+                covered = frozenset(self.occludes(tool)) - hidden
+                self.pending.append((t + self.camera_delay, round(t * 1e9), hidden, covered))
                 if self.answers_trigger:
                     self.core.on_frame_taken(round(t * 1e9))
-            for due, stamp, hidden in list(self.pending):
+            for frame in list(self.pending):
+                due, stamp, hidden, covered = frame
                 if t >= due:
-                    self.pending.remove((due, stamp, hidden))
+                    self.pending.remove(frame)
                     blocks = tuple(BlockPose(i, p.x, p.y, p.theta) for i, p in self.blocks.items()
-                                   if i not in hidden)
-                    self.core.on_detection(BlockSet(blocks, stamp, missing=tuple(sorted(hidden))))
+                                   if i not in hidden | covered)
+                    self.core.on_detection(BlockSet(blocks, stamp, missing=tuple(sorted(hidden)),
+                                                    occluded=tuple(sorted(covered))))
             if out.request_replan:  # the planner answers a second later
                 self.replan_requests += 1
                 plans.append((t + 1.0, self.on_replan()))

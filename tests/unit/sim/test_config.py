@@ -32,7 +32,7 @@ def test_sim_yaml_matches_the_defaults(cls, section):
 
 def test_calibration_file_holds_a_calibration_not_the_true_pose():
     # densepack-calibrate's result (issue 4): close to the true pose, never a copy of it
-    from nodes.detector.camera_model import load_camera_pose
+    from nodes.common.camera_model import load_camera_pose
 
     calibrated = load_camera_pose(config_path("camera_calibration.yaml"))
     true = CameraConfig()

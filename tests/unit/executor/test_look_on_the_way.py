@@ -1,0 +1,151 @@
+"""Looking on the way: after an action the arm heads for the next block at once and the
+frame is taken at the first moment the arm leaves the blocks to judge in view; the look pose
+only when it covers one of them."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from msgs_py import BlockPose, PickPlace, Plan, Pose2D
+from msgs_py.camera import CameraIntrinsics
+from msgs_py.cell import GripperGeometry
+from nodes.common.camera_model import CameraModel
+from nodes.executor.core import ExecutorCore
+from nodes.executor.motion import ToolPose
+from nodes.executor.primitives import hover_steps, look_pose
+from nodes.executor.states import State
+from nodes.executor.visibility import View, best_moment, script_samples
+from nodes.robot.kinematics import tcp_pose
+from tests.unit.executor.world import CFG, GOAL, START, WS, World, two_action_plan
+
+#: An overhead camera like the cell's: 1.25 m over (0.70, 0), image x along -y, y along -x.
+CAMERA = CameraModel(CameraIntrinsics(1280, 960, 1400.0, 1400.0, 639.5, 479.5),
+                     np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]),
+                     np.array([0.70, 0.0, 1.25]))
+VIEW = View(CAMERA, 0.0508)
+
+
+class NearTool(View):
+    """A stand-in view: the arm covers the blocks within ``radius`` of its tool (x, y)."""
+
+    def __init__(self, radius: float = 0.09) -> None:
+        super().__init__(CAMERA, 0.0508)
+        object.__setattr__(self, "radius", radius)
+
+    def covered(self, q, blocks):
+        x, y = tcp_pose(q)[:2, 3]
+        return {i for i, p in blocks.items() if math.hypot(p.x - x, p.y - y) < self.radius}
+
+
+def is_look_pose(tool: ToolPose) -> bool:
+    return tool.distance_to(look_pose(CFG, WS, tool)) < 1e-6
+
+
+def on_the_way(blocks: set[int]):
+    """The detector reports ``blocks`` covered in every frame taken at travel height."""
+    return lambda tool: blocks if abs(tool.z - CFG.travel_height) < 1e-6 else set()
+
+
+def hover(here: ToolPose, target: Pose2D) -> list[tuple[float, ToolPose]]:
+    """The dry-run samples of heading from ``here`` to above a block at ``target``."""
+    action = PickPlace(2, target, Pose2D(0.7, 0.0, 0.0), 0)
+    return script_samples(hover_steps(action, target, GripperGeometry(), CFG), here,
+                          CFG.in_safe_box, CFG.convergence_tol)
+
+
+def test_the_frame_is_taken_where_the_silhouette_leaves_the_blocks_in_view():
+    """From over a block at the far corner to over one at the near side (the forearm then
+    lies over neither): a moment between leaves both in view."""
+    here = ToolPose(0.92, -0.30, CFG.travel_height, 0.0)
+    target = Pose2D(0.50, 0.30, 0.0)
+    samples = hover(here, target)
+    assert samples[-1][1].distance_to(ToolPose(0.50, 0.30, CFG.travel_height, 0.0)) < 0.01
+    blocks = {1: Pose2D(here.x, here.y, 0.0), 2: target}
+    at = best_moment(VIEW, samples, blocks, {1, 2}, set())
+    assert at is not None and 0.0 < at < samples[-1][0]
+    # the next block needs judging, the last one may wait: the earliest moment clearing it
+    early = best_moment(VIEW, samples, blocks, {2}, {1})
+    assert early is not None and early <= at
+
+
+def test_no_moment_when_the_arm_over_one_block_always_covers_the_other():
+    here = ToolPose(0.55, -0.20, CFG.travel_height, 0.0)
+    close = {1: Pose2D(here.x, here.y, 0.0), 2: Pose2D(here.x + 0.054, here.y, 0.0)}
+    assert best_moment(VIEW, hover(here, close[2]), close, {1, 2}, set()) is None
+    # the forearm lies over a block between the base and the tool
+    behind = {1: Pose2D(0.55, -0.20, 0.0), 2: Pose2D(0.85, 0.20, 0.0)}
+    samples = hover(ToolPose(0.55, -0.20, CFG.travel_height, 0.0), behind[2])
+    assert best_moment(VIEW, samples, behind, {1, 2}, set()) is None
+
+
+def run_on_the_way(occludes=lambda tool: set(), disturb=None, view=None):
+    core = ExecutorCore(CFG)
+    core.view = view if view is not None else NearTool()
+    world = World(core, START, occludes=occludes)
+    if disturb is not None:
+        world.disturb = disturb(world)
+    world.on_replan = lambda: replan_from(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    return core, world
+
+
+def replan_from(world: World) -> Plan:
+    """The planner's answer: block 2's two actions from where it stands (block 1 placed)."""
+    blocks = [BlockPose(i, p.x, p.y, p.theta) for i, p in sorted(world.blocks.items())]
+    plan = two_action_plan("p2", blocks)
+    return dataclasses.replace(plan, actions=plan.actions[1:])
+
+
+def test_an_action_is_judged_from_a_frame_taken_while_the_arm_travels_on():
+    core, world = run_on_the_way()
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+    # after action 1: a frame on the way to block 2, off the placed block, at travel height
+    first = world.trigger_poses[1]  # (the first: the start, from the park pose)
+    assert not is_look_pose(first) and abs(first.z - CFG.travel_height) < 1e-6
+    assert math.hypot(first.x - GOAL[1].x, first.y - GOAL[1].y) > 0.09
+    assert core.report.metrics["looks_on_the_way"] >= 1
+    assert core.state is State.DONE and not core.belief.unverified
+
+
+def test_a_block_to_judge_covered_in_that_frame_is_looked_at_from_the_look_pose():
+    def occludes(tool: ToolPose) -> set[int]:
+        return on_the_way({2})(tool)
+
+    core, world = run_on_the_way(occludes)
+    assert any(is_look_pose(t) for t in world.trigger_poses)
+    assert core.report.metrics["looks_from_look_pose"] >= 1
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+
+
+def test_a_block_knocked_while_the_arm_covers_it_is_caught_before_it_is_picked():
+    """Block 2 is knocked 12 mm during action 1 and covered in the frame on the way: the look
+    pose shows where it stands, and the pick goes down on it there."""
+    knocked = Pose2D(START[1].x + 0.010, START[1].y - 0.007, START[1].theta)
+
+    def disturb(world):
+        def at(actions_done: int) -> None:
+            if actions_done == 1:
+                world.blocks[2] = knocked
+        return at
+
+    def occludes(tool: ToolPose) -> set[int]:
+        return on_the_way({2})(tool)
+
+    _, world = run_on_the_way(occludes, disturb)
+    descents = [p for _, _, p in world.setpoints if p.z < 0.02]
+    assert any(math.hypot(p.x - knocked.x, p.y - knocked.y) < 1e-6 for p in descents)
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+
+
+def test_without_a_camera_model_the_arm_looks_from_the_look_pose():
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    assert any(is_look_pose(t) for t in world.trigger_poses)
+    assert core.report.metrics.get("looks_on_the_way", 0.0) == 0.0
