@@ -45,6 +45,7 @@ class RunMonitor:
         self.first_image: Any = None
         self.last_image: Any = None
         self.sim_time = 0.0
+        self.since_ns = 0  # detections, ground truth and events stamped before are not this goal's
         # Per-action spans for the report's timeline, from the status stream as it comes.
         self.timeline = TimelineBuilder()
         n = self.node
@@ -66,6 +67,17 @@ class RunMonitor:
         # subscription costs a Python callback per message.
         self.rearrange = ActionClient(n, Rearrange, "/rearrange")
 
+    def begin_goal(self, since_ns: int) -> None:
+        """Forget the last goal (several goals on one cell): its plans, feedback, result,
+        timeline and images; detections, ground truth and events stamped before ``since_ns``
+        (when a new scene was laid out) are the last scene's and are not kept."""
+        with self.lock:
+            self.plans, self.feedback, self.result = [], None, None
+            self.events = self.ground_truth = self.detection = None
+            self.first_image = self.last_image = None
+            self.timeline = TimelineBuilder()
+            self.since_ns = since_ns
+
     def _keep(self, attr: str, decode: Callable[[Any], Any]) -> Callable[[Any], None]:
         def callback(msg: Any) -> None:
             try:
@@ -73,6 +85,8 @@ class RunMonitor:
             except (MessageError, ValueError):
                 return  # a malformed message is not the monitor's business
             with self.lock:
+                if getattr(value, "stamp_ns", self.since_ns) < self.since_ns:
+                    return  # the last scene's
                 if attr == "ground_truth":
                     self.sim_time = value.stamp_ns * 1e-9
                 if attr == "plans":
