@@ -182,7 +182,8 @@ def one_goal(soak: SoakCell, goal: int, seed: int, scene: Scene, before: dict[st
         "actions": counts.get("actions_executed"), "corrections": lifetime.get("corrections"),
         "worst_mm": _scaled(m["final_pos_err_max_m"], 1e3), "worst_deg": m["final_yaw_err_max_deg"],
         "lost": m["blocks_lost"], "contacts": m["unintended_contacts"],
-        "sim_s": monitor.sim_time - start_sim, "wall_s": result.wall_time_s,
+        "sim_start_s": start_sim, "sim_s": monitor.sim_time - start_sim,
+        "wall_s": result.wall_time_s,
         "inherited": "; ".join(inherited),
         "rss_mb": {n: s.rss_mb if s else None for n, s in samples.items()},
         "cpu_s": {n: proc_stats.cpu_used(before["samples"].get(n), s)
@@ -239,8 +240,9 @@ def _shift(soak: SoakCell, seeds, scenes, opts, workdir: Path) -> list[dict[str,
         row = one_goal(soak, k, seed, scene, before, opts.timeout)
         rows.append(row)
         (workdir / f"goal_{k:03d}.json").write_text(json.dumps(row, indent=2, default=str))
+        worst = "n/a" if row["worst_mm"] is None else f"{row['worst_mm']:.2f} mm"
         print(f"  goal {k} (seed {seed}): {row['outcome']}, {row['actions']} actions, worst "
-              f"{row['worst_mm']} mm, sim {row['sim_s']:.0f} s, wall {row['wall_s']:.0f} s"
+              f"{worst}, sim {row['sim_s']:.0f} s, wall {row['wall_s']:.0f} s"
               + (f"; INHERITED: {row['inherited']}" if row["inherited"] else ""), flush=True)
         if row["outcome"] == "crashed":
             break  # a node that may not respawn died: the cell is gone
@@ -248,6 +250,5 @@ def _shift(soak: SoakCell, seeds, scenes, opts, workdir: Path) -> list[dict[str,
 
 
 def _summary_row(summary: dict[str, Any]) -> dict[str, Any]:
-    return {"goal": "all", "outcome": f"{summary['done']}/{summary['goals']} done",
-            "lost": summary["lost"], "inherited": f"{summary['fresh']} fresh",
-            "wall_s": summary["wall_late_median_s"], **summary}
+    return {**summary, "goal": "all", "outcome": f"{summary['done']}/{summary['goals']} done",
+            "inherited": f"{summary['fresh']} fresh"}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from densepack_interfaces.action import Rearrange
@@ -116,16 +116,19 @@ class RunMonitor:
             self.last_image = msg
 
 
-#: Topics only a running cell publishes: seen on the domain, another cell is there.
-CELL_TOPICS = ("/sim/ground_truth", "/executor/status", "/plan")
+#: Topics only a running cell publishes (by the node that does): seen on the domain, another
+#: cell is there.
+CELL_TOPICS = {"sim": "/sim/ground_truth", "executor": "/executor/status", "planner": "/plan"}
 
 
-def another_cell(node: Any, wait_s: float = 2.0) -> str | None:
+def another_cell(node: Any, wait_s: float = 2.0, remote: Sequence[str] = ()) -> str | None:
     """The topic through which another cell shows itself on this node's domain, or None.
-    Two cells on one domain hear each other's goals, detections and plans."""
+    Two cells on one domain hear each other's goals, detections and plans. The topics of
+    ``remote`` nodes (this cell's, on another computer) do not count."""
+    topics = [t for name, t in CELL_TOPICS.items() if name not in remote]
     deadline = time.monotonic() + wait_s
     while True:
-        for topic in CELL_TOPICS:
+        for topic in topics:
             if node.count_publishers(topic) > 0:
                 return topic
         if time.monotonic() >= deadline:
