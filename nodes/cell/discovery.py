@@ -36,6 +36,10 @@ FIRST_SEEN_S = 10.0
 #: respawn (its respawn_delay and start-up) and than DDS's lease (Fast DDS: 20 s), after which a
 #: killed process leaves the graph.
 LOST_AFTER_S = 45.0
+#: A node whose data the run hears steadily (the sim's ground truth, 10 Hz), silent this long, is
+#: cut off (s): the graph keeps a node for DDS's lease after its link went down, its data stops
+#: at once.
+SILENT_AFTER_S = 5.0
 #: The RTPS well-known ports (DDSI-RTPS 9.6.1.1, Fast DDS's defaults): base, per domain, per
 #: participant, and the offsets of multicast discovery, multicast data, unicast discovery and
 #: unicast data.
@@ -87,13 +91,16 @@ def discovery_hint(env: Mapping[str, str]) -> str:
 class DiscoveryWatch:
     """Watches for ``remote`` nodes (by name) in the views it is given, from the first one
     on. ``update`` returns None while all is well, and the report once: a node not seen
-    within ``first_seen_s``, or seen and then gone for ``lost_after_s``."""
+    within ``first_seen_s``, seen and then gone for ``lost_after_s``, or, for a node whose
+    data the caller hears steadily, seen but silent for ``silent_after_s``."""
 
     remote: Sequence[str]
     first_seen_s: float = FIRST_SEEN_S
     lost_after_s: float = LOST_AFTER_S
+    silent_after_s: float = SILENT_AFTER_S
     signatures: Mapping[str, str] = field(default_factory=lambda: dict(SIGNATURE_TOPICS))
     started_at: float | None = None
+    first_seen: dict[str, float] = field(default_factory=dict)
     last_seen: dict[str, float] = field(default_factory=dict)
     report: str | None = None
 
@@ -106,16 +113,21 @@ class DiscoveryWatch:
         topic = self.signatures.get(name)
         return name in view.nodes or (topic is not None and topic in view.published)
 
-    def update(self, now: float, view: GraphView) -> str | None:
+    def update(self, now: float, view: GraphView,
+               heard: Mapping[str, float | None] | None = None) -> str | None:
+        """``heard``: for the nodes whose data the caller listens to steadily, when it last
+        came (None: not yet), on ``now``'s clock."""
         if self.report is not None:
             return None
         if self.started_at is None:
             self.started_at = now
         for name in self.remote:
             if self.seen(name, view):
+                self.first_seen.setdefault(name, now)
                 self.last_seen[name] = now
+        self.report = self._silent(now, heard or {})
         never = [n for n in self.remote if n not in self.last_seen]
-        if never and now - self.started_at >= self.first_seen_s:
+        if never and now - self.started_at >= self.first_seen_s and self.report is None:
             self.report = (f"cannot see node{'s' if len(never) > 1 else ''} "
                            f"{', '.join(never)} (expected on another computer) "
                            f"{now - self.started_at:.0f} s after the start")
@@ -125,3 +137,16 @@ class DiscoveryWatch:
                            f"(expected on another computer): not seen for "
                            f"{self.lost_after_s:.0f} s")
         return self.report
+
+    def _silent(self, now: float, heard: Mapping[str, float | None]) -> str | None:
+        for name, at in heard.items():
+            if name not in self.remote or name not in self.first_seen:
+                continue
+            if at is None and now - self.first_seen[name] >= self.silent_after_s:
+                return (f"sees node {name} (expected on another computer) but none of its "
+                        f"data arrives after {now - self.first_seen[name]:.0f} s: the data "
+                        "ports are blocked between the computers")
+            if at is not None and now - at >= self.silent_after_s:
+                return (f"no data from node {name} (expected on another computer) for "
+                        f"{now - at:.0f} s: the link to its computer is down, or it hangs")
+        return None

@@ -46,6 +46,9 @@ class RunMonitor:
         self.last_image: Any = None
         self.sim_time = 0.0
         self.since_ns = 0  # detections, ground truth and events stamped before are not this goal's
+        # When data last came from the nodes heard steadily (time.monotonic(); None: not yet):
+        # on another computer, their silence says the link is down (nodes/cell/discovery.py).
+        self.heard: dict[str, float | None] = {"sim": None}
         # Per-action spans for the report's timeline, from the status stream as it comes.
         self.timeline = TimelineBuilder()
         n = self.node
@@ -85,6 +88,8 @@ class RunMonitor:
             except (MessageError, ValueError):
                 return  # a malformed message is not the monitor's business
             with self.lock:
+                if attr == "ground_truth":
+                    self.heard["sim"] = time.monotonic()
                 if getattr(value, "stamp_ns", self.since_ns) < self.since_ns:
                     return  # the last scene's
                 if attr == "ground_truth":

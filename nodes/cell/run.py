@@ -98,7 +98,9 @@ def run(
                 break
             if watch is not None and time.monotonic() - looked >= GRAPH_PERIOD_S:
                 looked = time.monotonic()
-                report = watch.update(looked, graph_view(monitor.node, watch.topics))
+                with monitor.lock:
+                    heard = dict(monitor.heard)
+                report = watch.update(looked, graph_view(monitor.node, watch.topics), heard)
                 if report:
                     notes += [report, discovery_hint(os.environ)]
                     outcome = "unreachable"

@@ -9,7 +9,9 @@ drivers, started with ``densepack-cell --nodes``. Host b, the planning computer:
 ``densepack-run --remote sim,detector,arm,gripper`` starts the planner and the executor and
 drives the goal. First with host a's cable pulled: the run must stop by itself, naming the
 nodes it cannot see. Then plugged in: the default scene done, every block within 3 mm of its
-goal by the sim's ground truth (on one host: 0.04-0.44 mm, docs/benchmarks.md).
+goal by the sim's ground truth (on one host: 0.04-0.44 mm, docs/benchmarks.md). Last, the
+cable pulled while a run's goal is under way: the sim's data stops, and the run stops within
+seconds naming it (the graph would list the cut-off nodes for DDS's 20 s lease).
 """
 
 from __future__ import annotations
@@ -69,11 +71,34 @@ def wait_for_line(lines: queue.Queue, text: str, seen: list[str], timeout: float
     raise AssertionError(f"no '{text}' in {timeout:.0f} s:\n" + "".join(seen[-40:]))
 
 
-def run_on(host, peer: str, report, *args: str, timeout: float) -> subprocess.CompletedProcess:
-    argv = [*tool("run"), "--scene", str(SCENE), "--report", str(report), "--quiet",
+def run_argv(report, *args: str) -> list[str]:
+    return [*tool("run"), "--scene", str(SCENE), "--report", str(report), "--quiet",
             "--no-record", "--remote", ",".join(CELL_PC), *args]
-    return subprocess.run(host.command(argv, host_env(peer)), cwd=REPO, capture_output=True,
-                          text=True, timeout=timeout)
+
+
+def run_on(host, peer: str, report, *args: str, timeout: float) -> subprocess.CompletedProcess:
+    return subprocess.run(host.command(run_argv(report, *args), host_env(peer)), cwd=REPO,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def cut_during_a_run(hosts, report) -> tuple[int, str]:
+    """A run whose goal has its plan when host a's cable is pulled: its exit code and output.
+    (The blocks already stand at their goals: the executor must look to finish, and cannot.)"""
+    proc = subprocess.Popen(hosts.b.command(run_argv(report), host_env(hosts.a.address)),
+                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    lines, seen = read_lines(proc), []
+    try:
+        wait_for_line(lines, "plan ", seen, UNREACHABLE_RUN_S)
+        hosts.a.link_up(False)
+        proc.wait(timeout=UNREACHABLE_RUN_S)
+    finally:
+        stop(proc)
+        hosts.a.link_up(True)
+    time.sleep(1.0)  # the pump thread's last lines
+    while not lines.empty():
+        seen.append(lines.get())
+    return proc.returncode, "".join(seen)
 
 
 def stop(proc: subprocess.Popen) -> None:
@@ -129,6 +154,10 @@ def test_the_cell_split_over_two_hosts_reports_a_cut_link_and_does_the_default_s
               f"{metrics['actions_executed']:.0f} actions, sim {metrics['sim_time_s']:.0f} s, "
               f"wall {metrics['wall_time_s']:.0f} s")
         assert cell_pc.poll() is None, "".join(seen[-40:])  # the cell computer's nodes lived
+
+        code, said = cut_during_a_run(hosts, tmp_path / "cut_later")
+        assert code == 5, said
+        assert "no data from node sim (expected on another computer) for 5 s" in said, said
     finally:
         if cell_pc is not None:
             stop(cell_pc)

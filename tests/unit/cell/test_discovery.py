@@ -99,3 +99,28 @@ def test_the_graph_view_asks_only_for_the_topics_watched():
     view = graph_view(node, ["/arm/status", "/gripper/status"])
     assert view == GraphView(frozenset({"planner", "sim"}), frozenset({"/arm/status"}))
     assert node.asked == ["/arm/status", "/gripper/status"]
+
+
+def test_a_node_heard_steadily_that_falls_silent_is_cut_off_long_before_its_lease_ends():
+    watch = DiscoveryWatch(("sim", "arm"), silent_after_s=5.0)
+    assert watch.update(0.0, ALL, {"sim": None}) is None
+    assert watch.update(1.0, ALL, {"sim": 1.0}) is None
+    assert watch.update(5.9, ALL, {"sim": 1.0}) is None  # the graph still lists it
+    report = watch.update(6.0, ALL, {"sim": 1.0})
+    assert report == ("no data from node sim (expected on another computer) for 5 s: the link "
+                      "to its computer is down, or it hangs")
+
+
+def test_a_node_seen_whose_data_never_arrives_is_named():
+    watch = DiscoveryWatch(("sim",), first_seen_s=10.0, silent_after_s=5.0)
+    assert watch.update(0.0, LOCAL, {"sim": None}) is None  # not seen yet: no data expected
+    assert watch.update(3.0, ALL, {"sim": None}) is None
+    report = watch.update(8.0, ALL, {"sim": None})
+    assert report is not None and report.startswith("sees node sim")
+    assert "data ports are blocked" in report
+
+
+def test_data_of_a_node_run_here_is_not_watched():
+    watch = DiscoveryWatch(("arm",), silent_after_s=5.0)
+    assert watch.update(0.0, ALL, {"sim": 0.0}) is None
+    assert watch.update(60.0, ALL, {"sim": 0.0}) is None
