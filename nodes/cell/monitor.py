@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from densepack_interfaces.action import Rearrange
@@ -45,6 +45,10 @@ class RunMonitor:
         self.first_image: Any = None
         self.last_image: Any = None
         self.sim_time = 0.0
+        self.since_ns = 0  # detections, ground truth and events stamped before are not this goal's
+        # When data last came from the nodes heard steadily (time.monotonic(); None: not yet):
+        # on another computer, their silence says the link is down (nodes/cell/discovery.py).
+        self.heard: dict[str, float | None] = {"sim": None}
         # Per-action spans for the report's timeline, from the status stream as it comes.
         self.timeline = TimelineBuilder()
         n = self.node
@@ -66,6 +70,17 @@ class RunMonitor:
         # subscription costs a Python callback per message.
         self.rearrange = ActionClient(n, Rearrange, "/rearrange")
 
+    def begin_goal(self, since_ns: int) -> None:
+        """Forget the last goal (several goals on one cell): its plans, feedback, result,
+        timeline and images; detections, ground truth and events stamped before ``since_ns``
+        (when a new scene was laid out) are the last scene's and are not kept."""
+        with self.lock:
+            self.plans, self.feedback, self.result = [], None, None
+            self.events = self.ground_truth = self.detection = None
+            self.first_image = self.last_image = None
+            self.timeline = TimelineBuilder()
+            self.since_ns = since_ns
+
     def _keep(self, attr: str, decode: Callable[[Any], Any]) -> Callable[[Any], None]:
         def callback(msg: Any) -> None:
             try:
@@ -73,6 +88,10 @@ class RunMonitor:
             except (MessageError, ValueError):
                 return  # a malformed message is not the monitor's business
             with self.lock:
+                if attr == "ground_truth":
+                    self.heard["sim"] = time.monotonic()
+                if getattr(value, "stamp_ns", self.since_ns) < self.since_ns:
+                    return  # the last scene's
                 if attr == "ground_truth":
                     self.sim_time = value.stamp_ns * 1e-9
                 if attr == "plans":
@@ -102,16 +121,19 @@ class RunMonitor:
             self.last_image = msg
 
 
-#: Topics only a running cell publishes: seen on the domain, another cell is there.
-CELL_TOPICS = ("/sim/ground_truth", "/executor/status", "/plan")
+#: Topics only a running cell publishes (by the node that does): seen on the domain, another
+#: cell is there.
+CELL_TOPICS = {"sim": "/sim/ground_truth", "executor": "/executor/status", "planner": "/plan"}
 
 
-def another_cell(node: Any, wait_s: float = 2.0) -> str | None:
+def another_cell(node: Any, wait_s: float = 2.0, remote: Sequence[str] = ()) -> str | None:
     """The topic through which another cell shows itself on this node's domain, or None.
-    Two cells on one domain hear each other's goals, detections and plans."""
+    Two cells on one domain hear each other's goals, detections and plans. The topics of
+    ``remote`` nodes (this cell's, on another computer) do not count."""
+    topics = [t for name, t in CELL_TOPICS.items() if name not in remote]
     deadline = time.monotonic() + wait_s
     while True:
-        for topic in CELL_TOPICS:
+        for topic in topics:
             if node.count_publishers(topic) > 0:
                 return topic
         if time.monotonic() >= deadline:

@@ -30,10 +30,11 @@ class CellRun:
     file's ``respawn`` says (``supervise``)."""
 
     def __init__(self, scene_file: Path, log: IO[str], cell_file: str = "cell.yaml",
-                 extra_ros_args: tuple[str, ...] = ()) -> None:
+                 extra_ros_args: tuple[str, ...] = (), remote: tuple[str, ...] = ()) -> None:
+        """``remote``: nodes of the cell file that run on another computer (not started)."""
         launches, missing = load_cell(config_path(cell_file), (),
                                       {"scene_file": str(scene_file)},
-                                      ACTION_CELL_WITHOUT, ACTION_CELL_PARAMS)
+                                      (*ACTION_CELL_WITHOUT, *remote), ACTION_CELL_PARAMS)
         if missing:
             raise RuntimeError(f"the cell is incomplete: {', '.join(missing)} not implemented")
         self.launches: dict[str, NodeLaunch] = {launch.name: launch for launch in launches}

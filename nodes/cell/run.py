@@ -12,6 +12,7 @@ injects faults).
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -20,6 +21,7 @@ from typing import Any
 from rclpy.executors import SingleThreadedExecutor
 
 from msgs_py import BlockSet, Scene
+from nodes.cell.discovery import DiscoveryWatch, discovery_hint, graph_view
 from nodes.cell.goal_sender import GoalSender
 from nodes.cell.launch import load_cell
 from nodes.cell.monitor import RunMonitor
@@ -34,11 +36,16 @@ from nodes.goal.node import goal_layout
 #: Result outcome -> the run's outcome (the names of the exit codes and reports).
 OUTCOMES = {"succeeded": "done", "failed": "failed", "canceled": "canceled",
             "preempted": "failed"}
+#: How often the graph is looked at for the nodes expected on other computers (s).
+GRAPH_PERIOD_S = 0.5
+#: A goal already running when a node is lost is canceled; its result is waited for this long
+#: (the executor may be the computer that is cut off) (s).
+UNREACHABLE_CANCEL_S = 10.0
 
 
 @dataclass
 class RunResult:
-    outcome: str  # done | failed | canceled | rejected | timeout | crashed
+    outcome: str  # done | failed | canceled | rejected | timeout | crashed | unreachable
     wall_time_s: float
     notes: list[str] = field(default_factory=list)
 
@@ -69,13 +76,16 @@ def run(
     layout: Scene,
     timeout_s: float,
     on_progress: Callable[[RunMonitor, float], None] = lambda m, t: None,
+    watch: DiscoveryWatch | None = None,
 ) -> RunResult:
     """Send ``layout`` as a Rearrange goal and spin the monitor until the goal ends, a node
-    crashes or time runs out (the goal is then canceled: a safe stop)."""
+    crashes, ``watch`` cannot see a node expected on another computer (``unreachable``) or
+    time runs out (the goal is then canceled: a safe stop)."""
     executor = SingleThreadedExecutor(context=monitor.node.context)
     executor.add_node(monitor.node)
     sender = GoalSender(monitor, layout)
     wall0 = time.monotonic()
+    looked = -math.inf
     outcome = "timeout"
     notes: list[str] = []
     try:
@@ -86,6 +96,16 @@ def run(
                 notes.append(crashed)
                 outcome = "crashed"
                 break
+            if watch is not None and time.monotonic() - looked >= GRAPH_PERIOD_S:
+                looked = time.monotonic()
+                with monitor.lock:
+                    heard = dict(monitor.heard)
+                report = watch.update(looked, graph_view(monitor.node, watch.topics), heard)
+                if report:
+                    notes += [report, discovery_hint(os.environ)]
+                    outcome = "unreachable"
+                    sender.cancel(lambda: executor.spin_once(timeout_sec=0.1), UNREACHABLE_CANCEL_S)
+                    break
             sender.step(time.monotonic())
             on_progress(monitor, time.monotonic() - wall0)
             if sender.outcome:

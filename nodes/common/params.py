@@ -129,6 +129,23 @@ def declare_config(node: Any, cls: type[C], prefix: str = "") -> C:
     return cls(**values)
 
 
+def current_config(node: Any, cls: type[C], prefix: str = "") -> C:
+    """``cls`` built from the current values of ``node``'s parameters, as ``declare_config``
+    declared them (a parameter set since, e.g. through the node's ``set_parameters``
+    service, counts with its new value).
+
+    Raises:
+        ValueError: a value of the wrong type or one the config's own checks refuse; the
+            message names the parameter.
+    """
+    values: dict[str, Any] = {}
+    for f, meta in _param_fields(cls):
+        name = parameter_name(f, meta, prefix)
+        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+        values[f.name] = _coerce(name, node.get_parameter(name).value, default)
+    return cls(**values)
+
+
 def describe_config(cls: type, prefix: str = "") -> list[dict[str, str]]:
     """Rows of (name, type, default, unit, description) for help texts and docs."""
     rows = []

@@ -86,6 +86,11 @@ class SimConfig:
     gripper_latency_s: float = param(
         0.02, "time from a knuckle command to the gripper acting on it (2F-85 on Modbus RTU: "
         "a request/response cycle of a few ms plus the driver's polling)", unit="s")
+    reset_scene_only: bool = param(
+        False, "what /sim/reset does: true lays out a new scene (scene_file and random.* as "
+        "they are at the call) and clears the events, leaving the clock, the arm, the fingers "
+        "and the robot's state as they are (for a running cell, whose nodes run on this clock); "
+        "false also puts the arm home, opens the fingers and starts the clock again at 0")
 
     def __post_init__(self) -> None:
         if self.tool_force_limit < 0.0:

@@ -52,7 +52,7 @@ from msgs_py.ros.image import (
 )
 from msgs_py.sim import SimEvents as SimEventsRecord
 from msgs_py.status import GRIPPER_OBJECT_STATES
-from nodes.common.params import declare_config
+from nodes.common.params import current_config, declare_config
 from nodes.common.qos import LATCHED, RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
@@ -105,8 +105,10 @@ class SimNode(Node):
             f"{self.camera_config.rate_hz} Hz")
 
     def _load_scene(self):
-        rnd = self.random_config
-        scene = load_sim_scene(self.config.scene_file, rnd.n_blocks, rnd.density, rnd.seed)
+        """The scene of scene_file and random.* as they are now (set since start: a reset's)."""
+        rnd = current_config(self, RandomSceneConfig, "random.")
+        scene_file = current_config(self, SimConfig).scene_file
+        scene = load_sim_scene(scene_file, rnd.n_blocks, rnd.density, rnd.seed)
         problems = scene_problems(scene, self.camera_config.model(), self.config.home_joints)
         if problems:
             raise ValueError("the scene does not fit the cell: " + "; ".join(problems))
@@ -219,7 +221,7 @@ class SimNode(Node):
     def _on_reset(self, request, response):
         def apply() -> str:
             scene = self._load_scene()
-            self.world.reset(scene)
+            (self.world.lay_out if self.config.reset_scene_only else self.world.reset)(scene)
             self.pacer.restart(self.world.time_s)
             self.scene = scene
             self._publish_events()

@@ -162,23 +162,28 @@ class SimWorld:
     # --- lifecycle ------------------------------------------------------------------------------
     def reset(self, scene: Scene | None = None) -> None:
         """Back to the start: arm at home, gripper open, the scene's blocks at their poses."""
-        if scene is not None:
-            self.scene = scene
-        c = self.client
-        for body in self.block_bodies.values():
-            c.removeBody(body)
-        self.block_bodies = {b.id: self._spawn_block(b) for b in self.scene.blocks}
-        self.body_to_block = {body: bid for bid, body in self.block_bodies.items()}
         for j, q in zip(self.arm_joints, self.config.home_joints, strict=True):
-            c.resetJointState(self.robot, j, q, 0.0)
+            self.client.resetJointState(self.robot, j, q, 0.0)
         self.robot_state.reset(0.0)
         self.motion.hold(self.config.home_joints)
         self._can_move = True
         self.step_count = 0
         self.fingers.reset()
         self.guard.reset()
+        self.lay_out(scene if scene is not None else self.scene)
+
+    def lay_out(self, scene: Scene) -> None:
+        """A new scene under a running cell: ``scene``'s blocks where they start, the events
+        and any armed fault cleared; the clock, the arm, the fingers and the robot's state
+        are left as they are (an operator laying out blocks while the arm stands parked)."""
+        self.scene = scene
+        c = self.client
+        for body in self.block_bodies.values():
+            c.removeBody(body)
+        self.block_bodies = {b.id: self._spawn_block(b) for b in scene.blocks}
+        self.body_to_block = {body: bid for bid, body in self.block_bodies.items()}
         self.hand.reset()
-        self.monitor = EventMonitor(self.scene.workspace, rm.TABLE_EXTENT, rm.BLOCK_SIZE,
+        self.monitor = EventMonitor(scene.workspace, rm.TABLE_EXTENT, rm.BLOCK_SIZE,
                                     lost_margin=self.config.lost_margin)
         rate = self.config.physics_rate_hz / self.config.contact_check_rate_hz
         self._contact_every = max(1, round(rate))

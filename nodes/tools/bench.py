@@ -28,6 +28,7 @@ SUITES = {
     "perception": "nodes.bench.perception",
     "planner": "nodes.bench.planner",
     "cell": "nodes.bench.cell",
+    "soak": "nodes.bench.soak",
     "unlabeled": "nodes.bench.unlabeled",
     "reference": "nodes.bench.reference",
     "placement": "nodes.bench.placement",

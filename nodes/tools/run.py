@@ -35,6 +35,7 @@ from tqdm import tqdm
 
 from msgs_py import Plan, load_scene, save_plan
 from msgs_py.cell import PLACED_TOLERANCE_XY
+from nodes.cell.discovery import FIRST_SEEN_S, DiscoveryWatch
 from nodes.cell.monitor import RunMonitor, another_cell
 from nodes.cell.processes import CellRun, stop_cells_on_sigterm
 from nodes.cell.run import check_goal, run, run_metrics
@@ -42,7 +43,7 @@ from nodes.cell.timeline import write_timeline
 from nodes.common.paths import config_path
 
 EXIT_CODES = {"done": 0, "failed": 1, "canceled": 1, "crashed": 1, "timeout": 2,
-              "rejected": 4}
+              "rejected": 4, "unreachable": 5}
 EXIT_ANOTHER_CELL = 3
 EXIT_REFUSED = 4
 #: The run's bag, inside its report folder.
@@ -118,6 +119,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help="no progress bar (there is none either when stdout is not a terminal)")
     parser.add_argument("--no-record", action="store_true",
                         help=f"do not record the run into <report>/{BAG_DIR} (rosbag2, MCAP)")
+    parser.add_argument("--remote", default="", metavar="NODES",
+                        help="nodes of the cell that run on other computers (comma-separated, "
+                        "e.g. sim,detector,arm,gripper, started there with densepack-cell "
+                        "--nodes): not started here, and the run stops (exit 5) naming any it "
+                        "cannot see")
+    parser.add_argument("--discovery-timeout", type=float, default=FIRST_SEEN_S, metavar="S",
+                        help="how soon the --remote nodes must be seen (s)")
     return parser
 
 
@@ -158,10 +166,11 @@ def main(args: Sequence[str] | None = None) -> int:
     rclpy.init(context=context)
     stop_cells_on_sigterm()
     progress = Progress(opts.quiet)
+    remote = tuple(n for n in opts.remote.split(",") if n)
     with open(report / "cell.log", "w") as log:
-        cell = CellRun(scene_file, log)
+        cell = CellRun(scene_file, log, remote=remote)
         monitor = RunMonitor(context)
-        topic = another_cell(monitor.node)
+        topic = another_cell(monitor.node, remote=remote)
         if topic is not None:
             domain = os.environ.get("ROS_DOMAIN_ID", "0")
             print(f"densepack-run: another cell is running on ROS_DOMAIN_ID={domain} (it "
@@ -174,11 +183,14 @@ def main(args: Sequence[str] | None = None) -> int:
         recorder = None if opts.no_record else start_recorder(cell, report / BAG_DIR)
         cell.start()
         try:
-            result = run(cell, monitor, layout, opts.timeout, progress)
+            watch = DiscoveryWatch(remote, opts.discovery_timeout) if remote else None
+            result = run(cell, monitor, layout, opts.timeout, progress, watch)
         finally:
             progress.close()
             recorded = recorder is not None and stop_recorder(recorder)
             cell.stop()
+    if result.outcome == "unreachable":
+        print(f"densepack-run: {'; '.join(result.notes)}", file=sys.stderr, flush=True)
     metrics = run_metrics(monitor, scene, result)
     if recorder is not None:
         metrics["bag"] = bag_figures(report / BAG_DIR) if recorded else None

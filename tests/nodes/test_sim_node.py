@@ -14,6 +14,7 @@ import pytest
 from densepack_interfaces.msg import BlockPoseArray, Disturbance, SimEvents
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock
@@ -37,6 +38,7 @@ from nodes.robot import gripper_2f85 as g85
 from nodes.robot import ur10e
 from nodes.robot.kinematics import solve_tcp_ik
 from nodes.sim.config import HOME_JOINTS, PARK_POSITION
+from nodes.sim.layout import random_sim_scene
 from nodes.sim.node import SimNode
 from tests.helpers import script, spawn_python
 
@@ -331,3 +333,30 @@ def test_a_free_running_sim_leaves_other_threads_the_gil(ros):
         os.stat(__file__)
         calls += 1
     assert calls >= sim.world.step_count - start  # starved: about one call per 15 steps
+
+
+def _set_sim_parameters(ros, **values):
+    request = SetParameters.Request(
+        parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
+    reply = ros.call_service("/sim/set_parameters", SetParameters, request, timeout=30)
+    assert all(r.successful for r in reply.results), reply.results
+
+
+def test_reset_lays_out_the_scene_its_parameters_name_now_and_keeps_the_clock(ros):
+    make_sim(ros, reset_scene_only=True)
+    _set_sim_parameters(ros, **{"random.n_blocks": 4, "random.density": 0.1, "random.seed": 4})
+    response = ros.call_service("/sim/reset", Trigger, timeout=30)
+    assert response.success, response.message
+    assert response.message.startswith("reset: 4 blocks")
+    assert float(response.message.split("t = ")[1].split(" s")[0]) > 0.0  # the clock ran on
+    expected = {b.id: b.pose for b in random_sim_scene(4, 0.1, 4).blocks}
+    truth = msg_codecs.block_set_from_msg(ros.wait_for_message(
+        "/sim/ground_truth", BlockPoseArray, lambda m: len(m.blocks) == 4, timeout=30))
+    for block in truth.blocks:
+        assert block.pose.distance_to(expected[block.id]) < 2e-3
+
+    _set_sim_parameters(ros, **{"random.seed": "seven"})  # dynamically typed: taken ...
+    response = ros.call_service("/sim/reset", Trigger, timeout=30)
+    assert not response.success and "random.seed" in response.message  # ... refused here
+    ros.wait_for_message("/sim/ground_truth", BlockPoseArray, lambda m: len(m.blocks) == 4,
+                         timeout=30)  # nothing half-applied
