@@ -95,10 +95,10 @@ def action_done(belief: Belief, cfg: ExecutorConfig, report: Report, tries: Trie
     belief.held = None
     done = plan.actions[belief.index]
     if belief.picked_from is not None:
-        belief.unverified |= neighbours(
-            belief.expected, footprint(belief.picked_from, belief.expected.get(done.block,
-                                                                               done.to)),
-            cfg.judge_radius)
+        ended = belief.expected.get(done.block, done.to)
+        belief.unverified |= neighbours(belief.expected, footprint(belief.picked_from, done),
+                                        cfg.judge_radius) | {done.block}
+        belief.unverified |= neighbours(belief.expected, [(ended.x, ended.y)], cfg.judge_radius)
     looked_from_here = looks_after(belief, cfg) and plan.scene is not None
     belief.index += 1
     if stop_requested:

@@ -209,7 +209,7 @@ class ExecutorCore:
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
         if self.state is State.OBSERVING:
-            self.camera.due(now)
+            self.camera.due(now, self.inbox.tcp)
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:
@@ -371,9 +371,7 @@ class ExecutorCore:
         arrived, camera.arrived = camera.arrived, None
         if arrived is not None:
             return self._judge_frame(arrived)
-        if camera.trigger_at is not None:  # its moment did not come on the way
-            camera.trigger_at = self._now
-            camera.due(self._now)
+        camera.due(self._now, self.inbox.tcp, force=True)  # not passed on the way: now
         if camera.on_the_way and camera.trigger_ns is None:  # no frame was needed
             return observe.go_on(self.planner.pending)
         return None

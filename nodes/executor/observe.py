@@ -17,6 +17,7 @@ looks now and then for the planner.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from msgs_py import BlockSet, Plan
@@ -44,15 +45,21 @@ from nodes.executor.primitives import hover_steps, look_steps, park_steps
 from nodes.executor.replan import accept_residual
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, Tries
+from nodes.executor.steps import Activity, Move, Rise
 from nodes.executor.verify import deviations
 from nodes.executor.visibility import (
     View,
     best_moment,
     footprint,
+    look_waypoint,
     neighbours,
     script_samples,
 )
 
+#: On the way, the frame is taken when the measured tool comes this close to the pose picked
+#: for it (m), or passes it within PASSING_M.
+AT_POSE_M = 0.01
+PASSING_M = 0.05
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
 GRASP_RETRIES = 2
 #: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
@@ -72,7 +79,10 @@ class Camera:
     arrived: BlockSet | None = None  #: the detection, come while the arm moved on
     want_trigger: bool = False  #: for the next tick's outputs
     last_idle_look: float | None = None
-    trigger_at: float | None = None  #: on the way: trigger when the clock gets here (s)
+    #: on the way: trigger where the measured tool passes this pose (the arm follows its
+    #: setpoints a servo delay and more behind: the script's time would be early)
+    trigger_near: ToolPose | None = None
+    near_dist: float = math.inf  #: how close the measured tool has come to it so far (m)
     on_the_way: bool = False  #: the frame is taken with the arm in view, moving on
     judge: frozenset[int] = frozenset()  #: on the way: blocks the frame must show uncovered
 
@@ -82,15 +92,22 @@ class Camera:
             self.triggers = 0
         self.trigger_ns = None
         self.arrived = None
-        self.trigger_at = None
+        self.trigger_near = None
+        self.near_dist = math.inf
         self.on_the_way = False
         self.judge = frozenset()
 
-    def due(self, now: float) -> bool:
-        """Trigger now: the moment picked on the way has come."""
-        if self.trigger_at is None or now < self.trigger_at:
+    def due(self, now: float, tcp: ToolPose | None, force: bool = False) -> bool:
+        """Trigger now if the measured tool ``tcp`` is at the pose picked on the way, or has
+        passed it (it came within PASSING_M and goes away again), or ``force``."""
+        if self.trigger_near is None:
             return False
-        self.trigger_at = None
+        dist = math.inf if tcp is None else tcp.distance_to(self.trigger_near)
+        passed = self.near_dist < PASSING_M and dist > self.near_dist
+        self.near_dist = min(self.near_dist, dist)
+        if not (force or dist < AT_POSE_M or passed):
+            return False
+        self.trigger_near = None
         self.trigger(now)
         return True
 
@@ -130,8 +147,8 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
                     here: ToolPose | None, now: float, report: Report) -> Decision:
     """After an action: head for the next action's block at once, and take the frame at the
     moment on the way that shows the blocks the next action needs judged (and most of the
-    others not seen since an action near them); no such moment: the look pose. Nothing to
-    judge and nothing seen anywhere on the way: no frame at all."""
+    others not seen since an action near them); with no such moment, pass a point on the way
+    that shows them (``look_waypoint``); with none either, the look pose."""
     action = belief.current
     start = None if action is None else belief.expected.get(action.block)
     if view is None or action is None or start is None or here is None:
@@ -141,16 +158,43 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
                         belief.turn_period)
     need = blocks_to_judge(belief, cfg)
     samples = script_samples(steps, here, cfg.in_safe_box, cfg.convergence_tol)
-    at = best_moment(view, samples, belief.expected, need, set(belief.unverified) - need)
-    camera.begin(Purpose.AFTER_ACTION)
-    if at is None and need:
-        report.count("looks_from_look_pose")
-        return Observe(Purpose.AFTER_ACTION, near=True)
-    camera.on_the_way, camera.judge = True, frozenset(need)
+    at = best_moment(view, samples, belief.expected, need, belief.unverified - need)
     if at is not None:
         report.count("looks_on_the_way")
-        camera.trigger_at = now + at
+    else:
+        detour = via_waypoint(view, belief, cfg, here, samples[-1][1], need, steps)
+        if detour is None:
+            report.count("looks_from_look_pose")
+            return Observe(Purpose.AFTER_ACTION, near=True)
+        steps, at, samples = detour
+        report.count("looks_from_waypoint")
+    camera.begin(Purpose.AFTER_ACTION)
+    camera.on_the_way, camera.judge = True, frozenset(need)
+    camera.trigger_near = next(p for t, p in samples if t >= at)
     return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
+
+
+def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose,
+                 then: ToolPose, need: set[int], steps: list
+                 ) -> tuple[list, float, list] | None:
+    """The way to the next block through the point that shows ``need`` with the least detour,
+    when the arm passes it (script s) and the script's dry-run samples; None without such a
+    point."""
+    ws = belief.scene.workspace if belief.scene is not None else None
+    if ws is None:
+        return None
+    up = here.with_z(max(here.z, cfg.travel_height))
+    area = (ws.x_min - cfg.look_offset, ws.x_max, ws.y_min, ws.y_max)
+    waypoint = look_waypoint(view, up, then, belief.expected, need, area)
+    if waypoint is None:
+        return None
+    steps = [Rise(cfg.travel_height, cfg.vertical_limits, "look: rise", blend=cfg.blend_radius,
+                  activity=Activity.LOOK),
+             Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
+                  activity=Activity.LOOK), *steps]
+    samples = script_samples(steps, here, cfg.in_safe_box, cfg.convergence_tol)
+    at = next((t for t, p in samples if p.distance_to(waypoint) < 1e-3), None)
+    return None if at is None else (steps, at, samples)
 
 
 def go_on(pending: Plan | None) -> Decision:
@@ -175,15 +219,15 @@ def covered_on_the_way(camera: Camera, belief: Belief, detection: BlockSet, repo
 
 
 def blocks_to_judge(belief: Belief, cfg: ExecutorConfig) -> set[int]:
-    """The blocks the next action needs judged before it goes down: those near where it will
-    act, the block itself among them. It starts from what the camera says of them, and
-    anything may have moved them since the last frame (the last action, a knock): so every
-    one, seen or not since."""
+    """The blocks the next action needs judged before it goes down: its own block (whatever
+    moved it since the last frame, the grasp is centred on what the camera says), and those
+    near where it will act that an action acted near since they were last seen."""
     nxt = belief.current
     if nxt is None or nxt.block not in belief.expected:
         return set()
-    return neighbours(belief.expected, footprint(belief.expected[nxt.block], nxt.to),
+    near = neighbours(belief.expected, footprint(belief.expected[nxt.block], nxt),
                       cfg.judge_radius)
+    return {nxt.block} | (near & belief.unverified)
 
 
 def look_here(d: LookHere, camera: Camera, now: float) -> Enter:

@@ -22,15 +22,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from msgs_py import Pose2D
-from msgs_py.cell import GRIPPER_STROKE
+from msgs_py import PickPlace, Pose2D, Push
+from msgs_py.cell import GRIPPER_STROKE, TAG_SIZE
 from nodes.common.camera_model import CameraModel
 from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.executor.motion import ToolPose
 from nodes.executor.steps import Step, StepRunner
 from nodes.robot import ur10e
 from nodes.robot.kinematics import solve_tcp_ik
-from nodes.robot.silhouette import MARGIN_PX, block_top_corners, robot_silhouette
+from nodes.robot.silhouette import MARGIN_PX, robot_silhouette, top_square
 
 #: The dry run's setpoints are looked at this often (s of script time).
 SAMPLE_S = 0.1
@@ -44,15 +44,18 @@ class View:
 
     camera: CameraModel
     block_size: float
+    tag_size: float = TAG_SIZE
     margin_px: float = MARGIN_PX
 
     def covered(self, q: Sequence[float], blocks: Mapping[int, Pose2D]) -> set[int]:
-        """The blocks whose top face the arm at joints ``q`` (fingers wide open) covers."""
+        """The blocks whose tag the arm at joints ``q`` (fingers wide open) covers, as the
+        detector judges it (the same silhouette, the same margin)."""
         silhouette = robot_silhouette(q, GRIPPER_STROKE, self.camera.project,
                                       lambda p: self.camera.to_camera(p)[:, 2], self.margin_px)
         return {i for i, p in blocks.items()
                 if silhouette.covers(self.camera.project(
-                    block_top_corners(p.x, p.y, p.theta, self.block_size)), self.margin_px)}
+                    top_square(p.x, p.y, p.theta, self.tag_size, self.block_size)),
+                    self.margin_px)}
 
 
 def script_samples(steps: Sequence[Step], start: ToolPose, in_safe_box: Callable[[ToolPose],
@@ -111,10 +114,38 @@ def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
     return None if best is None else best[1]
 
 
-def footprint(start: Pose2D, end: Pose2D, step: float = 0.025) -> list[tuple[float, float]]:
-    """Points along an action's way from ``start`` to ``end`` (a pick-and-place acts at the
-    two ends, a push all along; the points between cost a pick-and-place nothing but a few
-    more neighbours judged)."""
+#: Waypoints to look from lie on a grid this fine (m) over the workspace and its robot side.
+WAYPOINT_STEP = 0.05
+
+
+def look_waypoint(view: View, here: ToolPose, then: ToolPose, blocks: Mapping[int, Pose2D],
+                  need: set[int], area: tuple[float, float, float, float]
+                  ) -> ToolPose | None:
+    """Where to pass on the way from ``here`` to ``then`` (both at travel height) for the
+    camera to see ``need``: of the points of a grid over ``area`` (x_min, x_max, y_min,
+    y_max) at ``here``'s height and yaw where the arm covers none of them, the one that adds
+    the least way; None when there is none."""
+    x0, x1, y0, y1 = area
+    candidates = [ToolPose(x, y, here.z, here.yaw)
+                  for x in np.arange(x0, x1 + 1e-9, WAYPOINT_STEP)
+                  for y in np.arange(y0, y1 + 1e-9, WAYPOINT_STEP)]
+    candidates.sort(key=lambda w: here.distance_to(w) + w.distance_to(then))
+    wanted = {i: blocks[i] for i in need if i in blocks}
+    q_ref = None
+    for w in candidates:
+        q = arm_postures([w], q_ref)[0]
+        if q is not None and not view.covered(q, wanted):
+            return w
+    return None
+
+
+def footprint(start: Pose2D, action: PickPlace | Push, step: float = 0.025
+              ) -> list[tuple[float, float]]:
+    """Where an action acts, its block standing at ``start``: a pick-and-place at its two
+    ends (it carries the block above the others), a push all along its line."""
+    end = action.to
+    if isinstance(action, PickPlace):
+        return [(start.x, start.y), (end.x, end.y)]
     n = max(1, math.ceil(math.hypot(end.x - start.x, end.y - start.y) / step))
     return [(start.x + (end.x - start.x) * k / n, start.y + (end.y - start.y) * k / n)
             for k in range(n + 1)]

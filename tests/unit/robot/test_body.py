@@ -9,7 +9,7 @@ import pytest
 from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.robot.body import Solid, link_frames, posed_solids, surface_points
 from nodes.robot.kinematics import flange_pose, solve_tcp_ik
-from nodes.robot.silhouette import Silhouette, block_top_corners, robot_silhouette
+from nodes.robot.silhouette import Silhouette, robot_silhouette, top_square
 from nodes.sim.config import HOME_JOINTS
 
 
@@ -45,8 +45,8 @@ def overhead(points: np.ndarray) -> np.ndarray:
 def test_a_tag_under_the_gripper_is_covered_and_one_far_from_the_arm_is_not():
     q = solve_tcp_ik(pose_matrix([0.7, 0.1, 0.1], tool_down_quaternion(0.0)), HOME_JOINTS).q
     sil = robot_silhouette(q, 0.085, overhead)
-    under = overhead(block_top_corners(0.7, 0.1, 0.2, 0.0508))
-    beside = overhead(block_top_corners(0.9, -0.25, 0.0, 0.0508))
+    under = overhead(top_square(0.7, 0.1, 0.2, 0.04, 0.0508))
+    beside = overhead(top_square(0.9, -0.25, 0.0, 0.04, 0.0508))
     assert sil.covers(under) and not sil.covers(beside)
     assert Silhouette(sil.region, everything=True).covers(beside)
 
