@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -23,6 +24,11 @@ def pytest_configure(config: pytest.Config) -> None:
         os.environ["DENSEPACK_TEST_DOMAIN"] = str(allocate_domain_id())
     os.environ["ROS_DOMAIN_ID"] = os.environ["DENSEPACK_TEST_DOMAIN"]
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    # Runtime state (ROS logs, the detector's camera check record) in this session's own
+    # folder: no test reads what a developer's cell or another test session left behind.
+    if "DENSEPACK_TEST_ROS_HOME" not in os.environ:
+        os.environ["DENSEPACK_TEST_ROS_HOME"] = tempfile.mkdtemp(prefix="densepack-ros-home-")
+    os.environ["ROS_HOME"] = os.environ["DENSEPACK_TEST_ROS_HOME"]
     os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
 
 

@@ -54,7 +54,7 @@ from msgs_py.ros import disturbance_to_msg, sim_fault_to_msg
 from msgs_py.sim import Disturbance
 from msgs_py.sim import SimFault as SimFaultRecord
 from nodes.cell.monitor import RunMonitor
-from nodes.cell.processes import CellRun, private_domain, stop_cells_on_sigterm
+from nodes.cell.processes import CellRun, private_domain, private_ros_home, stop_cells_on_sigterm
 from nodes.cell.run import check_goal, run_metrics
 from nodes.cell.run import run as run_cell
 from nodes.common.camera_model import load_camera_pose
@@ -290,6 +290,7 @@ def run(opts, scene_runner: Callable[..., dict[str, Any]] = run_scene) -> list[d
     scenes = 2 if opts.quick else (opts.seeds or opts.scenes)
     workdir = opts.keep or Path(tempfile.mkdtemp(prefix="densepack-cell-bench-"))
     workdir.mkdir(parents=True, exist_ok=True)
+    private_ros_home(workdir)
     rows = []
     for blocks in opts.blocks:
         for fault in faults:

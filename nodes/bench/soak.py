@@ -45,7 +45,12 @@ from nodes.bench.soak_figures import (
     summarise,
 )
 from nodes.cell.monitor import RunMonitor
-from nodes.cell.processes import CellRun, private_domain, stop_cells_on_sigterm
+from nodes.cell.processes import (
+    CellRun,
+    private_domain,
+    private_ros_home,
+    stop_cells_on_sigterm,
+)
 from nodes.cell.run import check_goal, run_metrics
 from nodes.cell.run import run as run_goal
 from nodes.common.qos import RELIABLE
@@ -206,6 +211,7 @@ def run(opts) -> list[dict[str, Any]]:
     workdir = opts.keep or Path(tempfile.mkdtemp(prefix="densepack-soak-"))
     workdir.mkdir(parents=True, exist_ok=True)
     private_domain()
+    private_ros_home(workdir)
     context = Context()
     rclpy.init(context=context)
     stop_cells_on_sigterm()

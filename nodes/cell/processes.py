@@ -120,6 +120,16 @@ def private_domain() -> int:
     return int(os.environ["ROS_DOMAIN_ID"])
 
 
+def private_ros_home(workdir: Path) -> Path:
+    """Keep the runtime state of the nodes this process starts (ROS logs, the detector's
+    camera check record) under ``workdir``: a benchmark starts from no earlier check, and
+    its first scene's check serves the scenes after it, as on one cell."""
+    home = workdir / "ros_home"
+    home.mkdir(parents=True, exist_ok=True)
+    os.environ["ROS_HOME"] = str(home)
+    return home
+
+
 def stop_cells_on_sigterm() -> None:
     """SIGTERM unwinds the main thread like Ctrl-C, so every ``finally: cell.stop()`` runs."""
     def _exit(signum: int, frame: Any) -> None:

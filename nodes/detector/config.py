@@ -65,6 +65,11 @@ class DetectorConfig:
     occlusion_margin_px: float = param(
         MARGIN_PX, "the robot's silhouette and each tag are grown by this before they are "
         "compared (joint state timing, calibration error, the model's simplicity)", unit="px")
+    calibration_check_max_age_h: float = param(
+        24.0, "a camera check (the executor's grips in place, placements that agree) younger "
+        "than this, for this calibration, counts: the detector starts with its correction and "
+        "says the calibration is checked, so the executor skips its camera check (0 = never)",
+        unit="h")
     calibration_file: str = param(
         "camera_calibration.yaml", "calibration YAML read when camera_pose.* is not set "
         "(relative paths are under config/)")

@@ -26,6 +26,7 @@ so that perception and arm agree. Pure logic (numpy), no ROS.
 from __future__ import annotations
 
 import dataclasses
+import enum
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -231,6 +232,20 @@ UPDATE_MIN_CHANGE = 0.0002
 KEEP_MISFIT_M = 0.0006
 
 
+#: A placement this far (m) from where the correction in use puts it, after the correction was
+#: updated from it, says perception and arm disagree (twice OUTLIER_M, which a correction
+#: leaves out as disturbed).
+DISAGREE_M = 2 * OUTLIER_M
+
+
+class Verdict(enum.Enum):
+    """What the placements say of the correction in use."""
+
+    UNKNOWN = "not known yet"
+    AGREES = "perception and arm agree"
+    DISAGREES = "perception and arm disagree"
+
+
 class HandEye:
     """The detector's side of the hand-eye check: placements in, corrected detections out.
 
@@ -241,10 +256,11 @@ class HandEye:
     """
 
     def __init__(self, workspace_corners: Sequence[tuple[float, float]],
-                 centre: tuple[float, float]) -> None:
+                 centre: tuple[float, float], correction: PlaneCorrection | None = None) -> None:
         self.corners = list(workspace_corners)
         self.centre = centre
-        self.correction = PlaneCorrection(cx=centre[0], cy=centre[1])
+        #: in use: the identity about the view's centre, or one a recent check found
+        self.correction = correction or PlaneCorrection(cx=centre[0], cy=centre[1])
         self.samples: list[Sample] = []
         self.pending: list[tuple[Placement, Pose2D]] = []  # (placement, its pick in raw)
         self.corrected_at_ns = -(10**18)
@@ -283,6 +299,21 @@ class HandEye:
             return raw
         return dataclasses.replace(raw, blocks=tuple(
             BlockPose(b.id, *_xyt(self.correction.apply(b.pose))) for b in raw.blocks))
+
+    def verdict(self) -> Verdict:
+        """Whether the placements so far agree with the correction in use: they pin the error
+        (two position equations from closing axes far enough from parallel) and every one
+        lands within OUTLIER_M of where the correction puts it (AGREES); one lands
+        further than DISAGREE_M and no correction could be adopted (DISAGREES); else not
+        known yet."""
+        if not self.samples:
+            return Verdict.UNKNOWN
+        worst = max(misfit(s, self.correction) for s in self.samples)
+        if worst > DISAGREE_M:
+            return Verdict.DISAGREES
+        pinned = (sum(s.constraints for s in self.samples) >= 2
+                  and axis_spread(self.samples) >= MIN_AXIS_SPREAD)
+        return Verdict.AGREES if pinned and worst <= OUTLIER_M else Verdict.UNKNOWN
 
     def _still_fits(self) -> bool:
         """A correction is in use and places every sample within KEEP_MISFIT_M of where it

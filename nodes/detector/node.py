@@ -23,6 +23,7 @@ import time
 from collections import Counter, deque
 
 from densepack_interfaces.msg import BlockPoseArray, Placement
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
@@ -38,9 +39,10 @@ from msgs_py.ros.image import camera_info_to_camera, image_to_array
 from nodes.common.camera_model import load_camera_pose
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
-from nodes.common.qos import RELIABLE, camera_qos
+from nodes.common.qos import LATCHED, RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.common.standard_msgs import joint_state_values
+from nodes.detector.calibration_check import CheckKeeper, default_record_path
 from nodes.detector.config import DetectorConfig
 from nodes.detector.handeye import HandEye
 from nodes.detector.pipeline import BlockDetector
@@ -77,6 +79,8 @@ class DetectorNode(Node):
         self._state = threading.Lock()  # the detector and hand-eye state: worker vs services
         self._forget = threading.Event()  # the clock went back: forget the blocks seen
         self.hand_eye: HandEye | None = None  # made with the first frame (the camera's view)
+        self.check = CheckKeeper(default_record_path(), pose,
+                                 self.config.calibration_check_max_age_h * 3600.0, time.time())
         self.robot = RobotPoses()  # the robot's joint states, for what it covers in a frame
         self._robot_lock = threading.Lock()
         self._make_interfaces()
@@ -88,6 +92,7 @@ class DetectorNode(Node):
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._work, name="detector-worker", daemon=True)
         self._worker.start()
+        self._publish_calibration()
         self.get_logger().info(
             f"camera pose from {source}: position {pose.position}; images on "
             f"{self.image_topic}; {self.detector.describe()}")
@@ -113,6 +118,8 @@ class DetectorNode(Node):
         camera_group = MutuallyExclusiveCallbackGroup()
         control_group = MutuallyExclusiveCallbackGroup()
         self.publisher = self.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
+        self.calibration_pub = self.create_publisher(DiagnosticStatus, "/detector/calibration",
+                                                     LATCHED)
         self.markers = self.create_publisher(MarkerArray, "/blocks/detected/markers", RELIABLE)
         camera = camera_qos(self.config.image_reliability)
         self.create_subscription(Image, self.image_topic, self.on_image, camera,
@@ -253,12 +260,30 @@ class DetectorNode(Node):
             return raw
         if self.hand_eye is None:
             view = self.detector.camera(intrinsics).table_view(self.config.block_size)
-            self.hand_eye = HandEye(view, tuple(view.mean(axis=0)))
+            record = self.check.record
+            self.hand_eye = HandEye(view, tuple(view.mean(axis=0)),
+                                    None if record is None else record.correction)
+        samples = len(self.hand_eye.samples)
         blocks = self.hand_eye.correct(raw)
         for line in self.hand_eye.log:
             self.get_logger().warning(line)
         self.hand_eye.log.clear()
+        if len(self.hand_eye.samples) != samples and self.check.on_verdict(
+                self.hand_eye.verdict(), self.hand_eye.correction, len(self.hand_eye.samples),
+                time.time()):
+            self._publish_calibration()
         return blocks
+
+    def _publish_calibration(self) -> None:
+        """What the detector says of its calibration (latched): checked against the arm
+        recently, or not (the executor then makes its camera check)."""
+        checked, words = self.check.status(time.time())
+        level = (DiagnosticStatus.OK if checked else
+                 DiagnosticStatus.ERROR if self.check.disagrees else DiagnosticStatus.WARN)
+        self.calibration_pub.publish(DiagnosticStatus(
+            level=level,
+            name="densepack/camera_calibration", message=words, hardware_id="camera"))
+        self.get_logger().info(f"calibration: {words}")
 
     # --- health -------------------------------------------------------------------------------
     def watchdog(self) -> None:
@@ -306,7 +331,9 @@ TOPICS = """subscribes: /camera/image_raw (sensor_msgs/Image rgb8; /camera/image
             identical stamp; /executor/placements (densepack_interfaces/Placement);
             /joint_states, /gripper/joint_states (sensor_msgs/JointState, by name: what the
             robot covers in a frame)
-publishes:  /blocks/detected (densepack_interfaces/BlockPoseArray: poses in world, missing
+publishes:  /detector/calibration (diagnostic_msgs/DiagnosticStatus, latched: OK checked
+            against the arm's placements recently, WARN not yet, ERROR they disagree),
+            /blocks/detected (densepack_interfaces/BlockPoseArray: poses in world, missing
             and occluded ids),
             /blocks/detected/markers (visualization_msgs/MarkerArray: a CUBE per block, for viewers)
 services:   ~/reset (std_srvs/Trigger): forget the blocks seen so far"""

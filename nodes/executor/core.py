@@ -139,6 +139,13 @@ class ExecutorCore:
         if self.guard.on_arm_status(status):
             self.report.count("protective_stops")
 
+    def on_calibration(self, checked: bool | None) -> None:
+        """The detector's word on its calibration: checked against the arm's placements
+        recently (True: no camera check needed), or they disagree (False: a check before the
+        next plan's first action); None says neither."""
+        if checked is not None and self.cfg.camera_check:
+            self.belief.camera_checked = checked
+
     def on_frame_taken(self, stamp_ns: int) -> None:
         if self.state is State.OBSERVING:
             self.camera.on_frame_taken(stamp_ns)

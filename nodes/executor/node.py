@@ -25,6 +25,7 @@ from densepack_interfaces.msg import ArmStatus, BlockPoseArray, GripperStatus, P
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo
@@ -64,7 +65,9 @@ subscribes: /plan (densepack_interfaces/Plan, latched),
             /arm/tcp_pose (geometry_msgs/PoseStamped: the arm node's, from the joints),
             /arm/status (densepack_interfaces/ArmStatus, latched: can the arm move),
             /gripper/status (densepack_interfaces/GripperStatus: grasp supervision),
-            /camera/camera_info (sensor_msgs/CameraInfo: a frame was taken)
+            /camera/camera_info (sensor_msgs/CameraInfo: a frame was taken; the lens, to
+            predict what the arm covers), /detector/calibration (diagnostic_msgs/
+            DiagnosticStatus, latched: checked recently, the camera check is skipped)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /gripper/command (std_msgs/Float64),
             /executor/status (densepack_interfaces/ExecutorStatus, latched),
@@ -96,6 +99,8 @@ class ExecutorNode(Node):
         self.create_subscription(GripperStatus, "/gripper/status", self.on_gripper, RELIABLE)
         self.create_subscription(ArmStatus, "/arm/status", self.on_arm_status, LATCHED)
         self.create_subscription(CameraInfo, "/camera/camera_info", self.on_camera_info, CAMERA)
+        self.create_subscription(DiagnosticStatus, "/detector/calibration", self.on_calibration,
+                                 LATCHED)
         self.render_pub = self.create_publisher(Header, "/sim/render_request", RELIABLE)
         self._frame_after_ns: int | None = None  # a frame taken since then is the look's
         self._camera_pose = self._load_camera_pose() if self.config.look_while_moving else None
@@ -168,6 +173,11 @@ class ExecutorNode(Node):
         if status is not None:
             with self.lock:
                 self.core.on_arm_status(status)
+
+    def on_calibration(self, msg: DiagnosticStatus) -> None:
+        checked = {DiagnosticStatus.OK: True, DiagnosticStatus.ERROR: False}.get(msg.level)
+        with self.lock:
+            self.core.on_calibration(checked)
 
     def on_camera_info(self, msg: CameraInfo) -> None:
         """The camera as the executor knows it (to look on the way); the first frame stamped
