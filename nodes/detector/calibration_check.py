@@ -54,11 +54,12 @@ class CheckRecord:
     def to_dict(self) -> dict:
         c = self.correction
         return {
-            "calibration": {"position": list(self.calibration.position),
-                            "orientation_xyzw": list(self.calibration.orientation_xyzw)},
-            "checked_at": self.checked_at,
-            "correction": {"dx": c.dx, "dy": c.dy, "w": c.w, "cx": c.cx, "cy": c.cy},
-            "placements": self.placements,
+            "calibration": {"position": [float(v) for v in self.calibration.position],
+                            "orientation_xyzw": [float(v) for v in
+                                                 self.calibration.orientation_xyzw]},
+            "checked_at": float(self.checked_at),
+            "correction": {k: float(getattr(c, k)) for k in ("dx", "dy", "w", "cx", "cy")},
+            "placements": int(self.placements),
         }
 
     @classmethod
@@ -118,6 +119,7 @@ class CheckKeeper:
         self.max_age_s = max_age_s
         self.record = recent(load_record(path), pose, now, max_age_s)
         self.disagrees = False
+        self.error = ""  #: why the record could not be written or voided ("" = it could)
 
     def on_verdict(self, verdict: Verdict, correction: PlaneCorrection, placements: int,
                    now: float) -> bool:
@@ -126,15 +128,27 @@ class CheckKeeper:
         if verdict is Verdict.DISAGREES:
             changed = self.record is not None or not self.disagrees
             self.record, self.disagrees = None, True
-            void_record(self.path)
+            self._store(None)
             return changed
         if verdict is not Verdict.AGREES:
             return False
         was = self.record
         self.record = CheckRecord(self.pose, now, correction, placements)
         self.disagrees = False
-        save_record(self.path, self.record)
+        self._store(self.record)
         return was is None or was.correction != correction
+
+    def _store(self, record: CheckRecord | None) -> None:
+        """Write (or void) the record; a file that cannot be written costs the next run a
+        check, never a frame (``error`` says why)."""
+        try:
+            if record is None:
+                void_record(self.path)
+            else:
+                save_record(self.path, record)
+            self.error = ""
+        except (OSError, yaml.YAMLError) as err:
+            self.error = f"{self.path}: {err}"
 
     def status(self, now: float) -> tuple[bool, str]:
         """(checked, in words)."""

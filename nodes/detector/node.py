@@ -272,6 +272,8 @@ class DetectorNode(Node):
                 self.hand_eye.verdict(), self.hand_eye.correction, len(self.hand_eye.samples),
                 time.time()):
             self._publish_calibration()
+        if self.check.error:
+            self.warn(WarningKind.CHECK_RECORD, f"camera check record: {self.check.error}")
         return blocks
 
     def _publish_calibration(self) -> None:

@@ -19,5 +19,6 @@ class WarningKind(enum.Enum):
     CLOCK = "clock jumped back"
     # the arm's placements
     PLACEMENT = "malformed placement"
+    CHECK_RECORD = "camera check record not written"
     # the robot's joint states (what it covers in a frame)
     JOINT_STATE = "malformed joint state"

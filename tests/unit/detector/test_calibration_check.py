@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from msgs_py import Pose2D
@@ -69,7 +70,9 @@ def test_the_keeper_saves_an_agreement_and_voids_a_disagreement(tmp_path):
     keeper = CheckKeeper(path, POSE, max_age_s=3600, now=0.0)
     assert keeper.status(0.0) == (False, "not checked against the arm yet")
     assert not keeper.on_verdict(Verdict.UNKNOWN, FIX, 1, 10.0)
-    assert keeper.on_verdict(Verdict.AGREES, FIX, 2, 10.0)
+    numpy_fix = PlaneCorrection(*(np.float64(v) for v in (0.002, -0.001, 0.003, *CENTRE)))
+    assert keeper.on_verdict(Verdict.AGREES, numpy_fix, 2, 10.0)  # as the fit returns it
+    assert keeper.error == "" and load_record(path) is not None
     checked, words = keeper.status(10.0 + 1800)
     assert checked and "0.5 h ago" in words
     assert CheckKeeper(path, POSE, 3600, now=100.0).record.correction == FIX  # next start
@@ -87,3 +90,11 @@ def test_the_executor_makes_its_camera_check_unless_the_detector_says_checked(ch
     core = ExecutorCore(CHECKING)
     core.on_calibration(checked)
     assert core.belief.camera_checked is expected
+
+
+def test_a_record_that_cannot_be_written_is_said_not_raised(tmp_path):
+    blocker = tmp_path / "not_a_folder"
+    blocker.write_text("")
+    keeper = CheckKeeper(blocker / "check.yaml", POSE, 3600, now=0.0)
+    assert keeper.on_verdict(Verdict.AGREES, FIX, 2, 1.0)
+    assert keeper.error and keeper.status(1.0)[0]  # checked for this detector's life
