@@ -215,8 +215,9 @@ class ExecutorCore:
             self._started_at = now
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
-        if self.state is State.OBSERVING:
-            self.camera.due(now, self.inbox.tcp)
+        if self.state is State.OBSERVING and self.camera.due(now, self.inbox.tcp):
+            self.report.log(f"frame on the way, the tool {self.camera.near_dist * 1e3:.0f} mm "
+                            "from the pose picked for it")
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:

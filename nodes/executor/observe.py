@@ -45,7 +45,7 @@ from nodes.executor.primitives import hover_steps, look_steps, park_steps
 from nodes.executor.replan import accept_residual
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, Tries
-from nodes.executor.steps import Activity, Move, Rise
+from nodes.executor.steps import Activity, Grip, Move, Rise
 from nodes.executor.verify import deviations
 from nodes.executor.visibility import (
     View,
@@ -60,6 +60,8 @@ from nodes.executor.visibility import (
 #: for it (m), or passes it within PASSING_M.
 AT_POSE_M = 0.01
 PASSING_M = 0.05
+#: The arm rounds a look waypoint within this (m) instead of stopping on it.
+WAYPOINT_BLEND_M = 0.04
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
 GRASP_RETRIES = 2
 #: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
@@ -188,13 +190,21 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
     waypoint = look_waypoint(view, up, then, belief.expected, need, area)
     if waypoint is None:
         return None
-    steps = [Rise(cfg.travel_height, cfg.vertical_limits, "look: rise", blend=cfg.blend_radius,
-                  activity=Activity.LOOK),
-             Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
-                  activity=Activity.LOOK), *steps]
-    samples = script_samples(steps, here, cfg.in_safe_box, cfg.convergence_tol)
-    at = next((t for t, p in samples if p.distance_to(waypoint) < 1e-3), None)
-    return None if at is None else (steps, at, samples)
+    # through the waypoint without stopping where the blended path still shows ``need``;
+    # else stopping on it
+    grips = [step for step in steps if isinstance(step, Grip)]
+    moves = [step for step in steps if not isinstance(step, Grip | Rise)]  # risen already
+    for blend in (WAYPOINT_BLEND_M, 0.0):
+        way = [*grips,
+               Rise(cfg.travel_height, cfg.vertical_limits, "look: rise",
+                    blend=cfg.blend_radius, activity=Activity.LOOK),
+               Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
+                    blend=blend, activity=Activity.LOOK), *moves]
+        samples = script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)
+        at = best_moment(view, samples, belief.expected, need, set())
+        if at is not None:
+            return way, at, samples
+    return None
 
 
 def go_on(pending: Plan | None) -> Decision:

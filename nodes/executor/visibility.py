@@ -33,7 +33,7 @@ from nodes.robot.kinematics import solve_tcp_ik
 from nodes.robot.silhouette import MARGIN_PX, robot_silhouette, top_square
 
 #: The dry run's setpoints are looked at this often (s of script time).
-SAMPLE_S = 0.1
+SAMPLE_S = 0.05
 #: A dry run longer than this (s) is cut (a script that does not end by itself).
 MAX_SCRIPT_S = 20.0
 
@@ -94,19 +94,22 @@ def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = No
 def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
                 blocks: Mapping[int, Pose2D], need: set[int], wanted: set[int]
                 ) -> float | None:
-    """The sample time at which the arm covers none of ``need`` and the fewest of ``wanted``
-    (the earliest of those), their poses in ``blocks``; None if it covers one of ``need`` at
-    every sample, or, with nothing needed, every one of ``wanted`` at every sample."""
+    """The sample time at which the arm covers none of ``need``, nor at the sample after it
+    (the frame comes a few ticks after the arm passes the pose: it must still show them), and
+    the fewest of ``wanted`` (the earliest of those), their poses in ``blocks``; None if it
+    covers one of ``need`` at every such pair of samples, or, with nothing needed, every one
+    of ``wanted`` at every sample."""
     looked = {i: blocks[i] for i in need | wanted if i in blocks}
-    best: tuple[int, float] | None = None
     postures = arm_postures([pose for _, pose in samples])
-    for (t, _), q in zip(samples, postures, strict=True):
-        if q is None:
+    covered = [None if q is None else view.covered(q, looked) for q in postures]
+    best: tuple[int, float] | None = None
+    for k, (t, _) in enumerate(samples):
+        now, after = covered[k], covered[min(k + 1, len(covered) - 1)]
+        if now is None or after is None or (now | after) & need:
             continue
-        covered = view.covered(q, looked)
-        if covered & need or (not need and covered >= set(looked)):
+        if not need and now >= set(looked):
             continue
-        score = len(covered & wanted)
+        score = len(now & wanted)
         if best is None or score < best[0]:
             best = (score, t)
         if score == 0:

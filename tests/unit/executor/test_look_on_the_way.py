@@ -31,7 +31,7 @@ VIEW = View(CAMERA, 0.0508)
 class NearTool(View):
     """A stand-in view: the arm covers the blocks within ``radius`` of its tool (x, y)."""
 
-    def __init__(self, radius: float = 0.09) -> None:
+    def __init__(self, radius: float = 0.07) -> None:
         super().__init__(CAMERA, 0.0508)
         object.__setattr__(self, "radius", radius)
 
@@ -107,7 +107,7 @@ def test_an_action_is_judged_from_a_frame_taken_while_the_arm_travels_on():
     # after action 1: a frame on the way to block 2, off the placed block, at travel height
     first = world.trigger_poses[1]  # (the first: the start, from the park pose)
     assert not is_look_pose(first) and abs(first.z - CFG.travel_height) < 1e-6
-    assert math.hypot(first.x - GOAL[1].x, first.y - GOAL[1].y) > 0.09
+    assert math.hypot(first.x - GOAL[1].x, first.y - GOAL[1].y) > 0.07
     assert core.report.metrics["looks_on_the_way"] >= 1
     assert core.state is State.DONE and not core.belief.unverified
 
