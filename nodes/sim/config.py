@@ -55,8 +55,12 @@ class SimConfig:
         "a UR does", unit="s")
     clock_rate_hz: float = param(100.0, "/clock publish rate in simulated time", unit="Hz")
     state_rate_hz: float = param(
-        50.0, "rate of the drivers' state topics (/joint_states, /gripper/joint_states, the "
-        "TCP pose and speed scaling) in simulated time", unit="Hz")
+        50.0, "rate of the drivers' joint states (/joint_states, /gripper/joint_states) in "
+        "simulated time", unit="Hz")
+    status_rate_hz: float = param(
+        10.0, "rate of the UR driver's TCP pose and speed scaling broadcasters in simulated "
+        "time (the driver's controllers file sets theirs; no densepack node needs them fast: "
+        "the arm node computes the TCP from the joint states)", unit="Hz")
     ground_truth_rate_hz: float = param(
         10.0, "/sim/ground_truth rate in simulated time", unit="Hz")
     events_rate_hz: float = param(2.0, "/sim/events rate in simulated time", unit="Hz")
@@ -108,8 +112,8 @@ class SimConfig:
             raise ValueError(f"speed_slider must be in [0, 1], got {self.speed_slider}")
         if self.protective_stop_unlock_after_s < 0.0:
             raise ValueError("protective_stop_unlock_after_s must be >= 0")
-        for name in ("clock_rate_hz", "state_rate_hz", "ground_truth_rate_hz", "events_rate_hz",
-                     "contact_check_rate_hz"):
+        for name in ("clock_rate_hz", "state_rate_hz", "status_rate_hz",
+                     "ground_truth_rate_hz", "events_rate_hz", "contact_check_rate_hz"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"{name} must be > 0")
         lo, hi = g85.GRIP_FORCE_RANGE

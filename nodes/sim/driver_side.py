@@ -119,13 +119,17 @@ class DriverSide:
         self.pub_robot_mode.publish(RobotMode(mode=state.robot_mode))
         self.pub_running.publish(Bool(data=state.program_running))
 
-    def publish_state(self, stamp) -> None:
-        """Joint states (arm, knuckle), the TCP pose in ``base`` and the speed scaling."""
+    def publish_status(self, stamp) -> None:
+        """The TCP pose in ``base`` and the speed scaling (percent)."""
         world = self.world()
-        names, q, v = world.joint_state()
-        self.pub_joints.publish(joint_state_msg(stamp, names, q, v))
         position, quat = world.tcp_pose()
         self.pub_tcp.publish(pose_stamped_msg(stamp, position, quat, drivers.BASE_FRAME))
         self.pub_speed.publish(Float64(data=100.0 * world.robot_state.speed_scaling))
+
+    def publish_state(self, stamp) -> None:
+        """Joint states: the arm's, and the knuckle's."""
+        world = self.world()
+        names, q, v = world.joint_state()
+        self.pub_joints.publish(joint_state_msg(stamp, names, q, v))
         knuckle, rate = world.fingers.knuckle()
         self.pub_knuckle.publish(joint_state_msg(stamp, [g85.KNUCKLE_JOINT], [knuckle], [rate]))

@@ -12,12 +12,10 @@ that the loop applies between two physics steps (services wait for the loop's an
 rendering pauses physics, and nothing is half-applied: a malformed or refused command is
 logged, as the driver logs it, and changes nothing.
 
-Pacing (``Pacer``): while motion commands come, the sim runs as fast as the machine allows
-but stays ``lockstep_margin_s`` of simulated time behind the end of the newest one (lockstep:
-the arm node, and the executor it follows, are never outrun, however loaded the machine);
-when none is in force (the cell waits for a camera frame to be judged, or for a plan), time
-passes at ``real_time_factor``, as it would for a real robot waiting. Rendering a frame is
-not charged to simulated time (a real camera's exposure is milliseconds).
+Pacing (``nodes.sim.pacing``): in lockstep with the arm node's commands, moving or holding
+still, as fast as the machine allows; at ``real_time_factor`` while none is in force (the
+cell waits for a frame to be judged, or for a plan). A render costs no simulated time (a real
+camera's exposure is milliseconds). Where the loop's wall time goes is logged now and then.
 """
 
 from __future__ import annotations
@@ -58,7 +56,7 @@ from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.driver_side import DriverSide
 from nodes.sim.layout import load_sim_scene, scene_problems
-from nodes.sim.pacing import Pacer
+from nodes.sim.pacing import LoopTimes, Pacer, period_steps
 from nodes.sim.world import SimWorld
 
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
@@ -248,33 +246,40 @@ class SimNode(Node):
     # --- the sim loop (the only thread that touches the world) ----------------------------------
     def _loop(self) -> None:
         cfg = self.config
-        every = {
-            "clock": _period_steps(cfg.physics_rate_hz, cfg.clock_rate_hz),
-            "state": _period_steps(cfg.physics_rate_hz, cfg.state_rate_hz),
-            "truth": _period_steps(cfg.physics_rate_hz, cfg.ground_truth_rate_hz),
-            "events": _period_steps(cfg.physics_rate_hz, cfg.events_rate_hz),
-            "camera": (_period_steps(cfg.physics_rate_hz, self.camera_config.rate_hz)
-                       if self.camera_config.rate_hz > 0 else 0),
-        }
+        every = period_steps(cfg.physics_rate_hz, {
+            "clock": cfg.clock_rate_hz, "state": cfg.state_rate_hz, "status": cfg.status_rate_hz,
+            "truth": cfg.ground_truth_rate_hz, "events": cfg.events_rate_hz,
+            "camera": self.camera_config.rate_hz})
         self.pacer.restart(self.world.time_s)
         shared = time.monotonic()  # when the loop last let go of the GIL
+        times = LoopTimes()
         while not self._stop.is_set() and self.context.ok():
             try:
+                t0 = time.monotonic()
                 while self._commands:
                     self._commands.popleft()()
                 now = time.monotonic()
+                times.add("commands", now - t0)
                 wait = self.pacer.wait_before_step(self.world.time_s, now)
                 if wait > 0.0:
                     self._wake.wait(min(wait, MAX_IDLE_WAIT_S))
                     self._wake.clear()
                     shared = time.monotonic()
+                    times.add(self.pacer.waiting, shared - now)
                     continue
                 if now - shared > GIL_SHARE_EVERY_S:
                     time.sleep(GIL_SHARE_S)
                     shared = time.monotonic()
                 self.world.step()
+                t1 = time.monotonic()
                 self._publish_due(every)
                 self.drivers.publish_robot_state()
+                t2 = time.monotonic()
+                times.add("stepping", t1 - now)
+                times.add("publishing", t2 - t1)
+                line = times.report(self.world.time_s, t2)
+                if line:
+                    self.get_logger().info(line)
             except Exception as err:  # never let the loop die silently
                 if not self.context.ok():
                     break  # shutting down: publishers are gone
@@ -286,6 +291,8 @@ class SimNode(Node):
             self.pub_clock.publish(Clock(clock=ns_to_stamp(self.world.time_ns)))
         if k % every["state"] == 0:
             self._publish_state()
+        if k % every["status"] == 0:
+            self.drivers.publish_status(ns_to_stamp(self.world.time_ns))
         if k % every["truth"] == 0:
             self._publish_truth()
         if k % every["events"] == 0:
@@ -350,10 +357,6 @@ class SimNode(Node):
             self._thread.join(timeout=10.0)
         self.world.close()
         super().destroy_node()
-
-
-def _period_steps(physics_hz: float, rate_hz: float) -> int:
-    return max(1, round(physics_hz / rate_hz))
 
 
 TOPICS = """

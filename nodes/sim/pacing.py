@@ -50,6 +50,7 @@ class Pacer:
         self.hold_stall_wall_s = float(hold_stall_wall_s)
         self.commanded_until: float | None = None
         self.moving = False  #: the newest command moves the arm
+        self.waiting = "floor"  #: why the last wait (lockstep: a command is due; floor)
         self._command_wall: float | None = None
         self._wall0 = 0.0
         self._sim0 = 0.0
@@ -88,7 +89,9 @@ class Pacer:
                        or wall_time - self._command_wall > patience)
             if not stalled:
                 self.restart(sim_time, wall_time)
+                self.waiting = "lockstep"
                 return LOCKSTEP_POLL_S  # the commander's next command is due
+        self.waiting = "floor"
         if self.real_time_factor <= 0.0:
             return 0.0
         ahead = (sim_time - self._sim0) / self.real_time_factor - (wall_time - self._wall0)
@@ -96,3 +99,40 @@ class Pacer:
             self.restart(sim_time, wall_time)
             return 0.0
         return max(0.0, ahead)
+
+
+class LoopTimes:
+    """Where the sim loop's wall time goes (stepping, publishing, commands such as renders,
+    waiting for the commanders, the real-time floor), summed up in the log now and then: on a
+    loaded machine, the first thing to look at when the cell runs slowly."""
+
+    def __init__(self, period_wall_s: float = 30.0) -> None:
+        self.period = period_wall_s
+        self.seconds: dict[str, float] = {}
+        self._since = time.monotonic()
+        self._sim_since: float | None = None
+
+    def add(self, what: str, seconds: float) -> None:
+        self.seconds[what] = self.seconds.get(what, 0.0) + seconds
+
+    def report(self, sim_time: float, wall_time: float | None = None) -> str | None:
+        """A summary line once a period has passed (and the counts start again), else None."""
+        now = time.monotonic() if wall_time is None else wall_time
+        if self._sim_since is None:
+            self._sim_since = sim_time
+        span = now - self._since
+        if span < self.period:
+            return None
+        parts = ", ".join(f"{what} {100 * v / span:.0f}%"
+                          for what, v in sorted(self.seconds.items(), key=lambda kv: -kv[1]))
+        line = (f"sim loop, last {span:.0f} s: {sim_time - self._sim_since:.1f} s simulated "
+                f"({(sim_time - self._sim_since) / span:.2f}x); {parts}")
+        self.seconds, self._since, self._sim_since = {}, now, sim_time
+        return line
+
+
+def period_steps(physics_hz: float, rates_hz: dict[str, float]) -> dict[str, int]:
+    """Every how many physics steps each of ``rates_hz`` (Hz of simulated time) is due; 0 for
+    a rate of 0 (never)."""
+    return {name: max(1, round(physics_hz / hz)) if hz > 0 else 0
+            for name, hz in rates_hz.items()}
