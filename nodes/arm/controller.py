@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,25 +109,67 @@ class ArmController:
 
     def _solve(self, position, quat_xyzw, frame_id: str, stamp_s: float | None = None
                ) -> SetpointResult:
+        reference = self.stream[-1][1] if self.stream else self.q_cmd
+        q, reason = self._check_and_solve(position, quat_xyzw, frame_id, reference)
+        if q is None:
+            return SetpointResult(False, reason)
+        self._enqueue(self._stamp(stamp_s), q)
+        return SetpointResult(True)
+
+    def _check_and_solve(self, position, quat_xyzw, frame_id: str, reference: np.ndarray
+                         ) -> tuple[np.ndarray | None, str]:
+        """The joints for a TCP pose, nearest ``reference``, or None and why not."""
         if frame_id not in ACCEPTED_FRAMES:
-            return SetpointResult(False, f"frame_id '{frame_id}' is not 'world'")
+            return None, f"frame_id '{frame_id}' is not 'world'"
         pos = np.asarray(position, dtype=float)
         quat = np.asarray(quat_xyzw, dtype=float)
         if pos.shape != (3,) or quat.shape != (4,):
-            return SetpointResult(False, "a pose needs 3 position and 4 quaternion values")
+            return None, "a pose needs 3 position and 4 quaternion values"
         if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(quat))):
-            return SetpointResult(False, f"non-finite pose {pos.tolist()} {quat.tolist()}")
+            return None, f"non-finite pose {pos.tolist()} {quat.tolist()}"
         norm = float(np.linalg.norm(quat))
         if abs(norm - 1.0) > 0.1:
-            return SetpointResult(False, f"quaternion norm {norm:.3f} is not ~1")
+            return None, f"quaternion norm {norm:.3f} is not ~1"
         if pos[2] < self.min_tcp_z:
-            return SetpointResult(
-                False, f"TCP z = {pos[2]:.4f} m is below the safety plane {self.min_tcp_z} m")
-        reference = self.stream[-1][1] if self.stream else self.q_cmd
+            return None, f"TCP z = {pos[2]:.4f} m is below the safety plane {self.min_tcp_z} m"
         ik = solve_tcp_ik(pose_matrix(pos, quat / norm), reference)
         if not ik.ok:
-            return SetpointResult(False, ik.reason)
-        self._enqueue(self._stamp(stamp_s), ik.q)
+            return None, ik.reason
+        return ik.q, ""
+
+    def set_path(self, points: Sequence[tuple[Sequence[float], Sequence[float], str, float]]
+                 ) -> SetpointResult:
+        """A stamped run of TCP poses (position, quaternion xyzw, frame_id, stamp s, in stamp
+        order) that *replaces* the stream from its first stamp on, as a trajectory replaces
+        the last on a UR's trajectory controller: a commander streams the setpoints it knows
+        ahead and sends them again where they changed. The part before the playback point is
+        the past and stays. Every pose is checked and solved first; one that fails refuses the
+        whole path and the arm holds, as for a setpoint."""
+        if self.stopped:
+            self.rejected += 1
+            return SetpointResult(False, f"protective stop ({self.stopped}): unlock it first")
+        solved: list[tuple[float, np.ndarray]] = []
+        reference = self.stream[-1][1] if self.stream else self.q_cmd
+        for position, quat, frame_id, stamp_s in points:
+            q, reason = self._check_and_solve(position, quat, frame_id, reference)
+            if q is None:
+                self.rejected += 1
+                self.last_reason = reason
+                self.hold()
+                return SetpointResult(False, reason)
+            solved.append((self._stamp(stamp_s), q))
+            reference = q
+        if not solved:
+            return SetpointResult(True)
+        keep_before = solved[0][0]
+        if self.playback is not None:
+            keep_before = max(keep_before, self.playback + 1e-9)
+        while self.stream and self.stream[-1][0] >= keep_before:
+            self.stream.pop()
+        for t, q in solved:
+            if t >= keep_before:
+                self._enqueue(t, q)
+        self.accepted += len(solved)
         return SetpointResult(True)
 
     def _stamp(self, stamp_s: float | None) -> float:

@@ -19,6 +19,7 @@ from typing import Any
 
 from densepack_interfaces.msg import ArmStatus
 from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Path
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -61,6 +62,8 @@ class ArmNode(Node):
         # the executor's side
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self.on_setpoint,
                                  RELIABLE, callback_group=inputs)
+        self.create_subscription(Path, "/arm/cartesian_path", self.on_path, RELIABLE,
+                                 callback_group=inputs)
         self.create_service(Trigger, "/arm/unlock_protective_stop", self.on_unlock,
                             callback_group=inputs)
         self.pub_tcp = self.create_publisher(PoseStamped, "/arm/tcp_pose", RELIABLE)
@@ -128,15 +131,30 @@ class ArmNode(Node):
         stamp = stamp_seconds(msg.header.stamp) or None
         with self.lock:
             result = self.core.on_setpoint(position, quat, frame, stamp)
+        self._after_setpoints(result, [round(v, 4) for v in position])
+
+    def _after_setpoints(self, result, where: list[float]) -> None:
         if not result.accepted:
-            self.get_logger().warning(
-                f"setpoint {[round(v, 4) for v in position]} refused, the arm holds: "
-                f"{result.reason}", throttle_duration_sec=1.0)
+            self.get_logger().warning(f"setpoint {where} refused, the arm holds: "
+                                      f"{result.reason}", throttle_duration_sec=1.0)
             return
-        # A new setpoint lengthens what the arm can be commanded: send it now, not at the
-        # next tick of the clock, so the driver's trajectory never runs short while the
-        # executor streams (the sim waits for it; a real arm would slow down).
+        # New setpoints lengthen what the arm can be commanded: send it now, not at the next
+        # tick of the clock, so the driver's trajectory never runs short while the executor
+        # streams (the sim waits for it; a real arm would slow down).
         self.tick(min_gap=0.5 / self.config.command_rate_hz)
+
+    def on_path(self, msg: Path) -> None:
+        """Stamped setpoints that replace the stream from the first one's stamp on."""
+        try:
+            points = [(*pose_from_msg(p), stamp_seconds(p.header.stamp) or None)
+                      for p in msg.poses]
+        except (MessageError, ValueError) as err:
+            self.get_logger().warning(f"/arm/cartesian_path refused: {err}",
+                                      throttle_duration_sec=1.0)
+            return
+        with self.lock:
+            result = self.core.on_path(points)
+        self._after_setpoints(result, [round(v, 4) for v in points[0][0]] if points else [])
 
     def on_unlock(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
@@ -206,7 +224,8 @@ class ArmNode(Node):
 
 
 TOPICS = """
-subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world: the executor's stream);
+subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world: the executor's stream),
+  /arm/cartesian_path (nav_msgs/Path: stamped setpoints replacing the stream from the first);
   from ur_robot_driver: /joint_states (by name), /speed_scaling_state_broadcaster/speed_scaling
   (percent), /io_and_status_controller/{safety_mode, robot_mode, robot_program_running}
 publishes:  /scaled_joint_trajectory_controller/joint_trajectory (trajectory_msgs/

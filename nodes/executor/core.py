@@ -215,15 +215,15 @@ class ExecutorCore:
             self._started_at = now
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
-        if self.state is State.OBSERVING and self.camera.due(now, self.inbox.tcp):
-            self.report.log(f"frame on the way, the tool {self.camera.near_dist * 1e3:.0f} mm "
-                            "from the pose picked for it")
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:
             self._play(now)
         elif self.state is not State.IDLE and self.state in self._at_rest:
             self._decide(self._at_rest[self.state]())  # a script it starts streams next tick
+        if self._out.setpoint is not None and self.player.busy:
+            self._out.ahead = self.player.ahead(now, self.cfg.stream_lead_s,
+                                                1.0 / self.cfg.rate_hz)
         readings = self.inbox.take_readings()
         if readings:  # judged while a script plays; otherwise only the latest counts
             self.supervisor.last = readings[-1]
@@ -233,6 +233,8 @@ class ExecutorCore:
         # Requests made by input callbacks (a detection that calls for a replan, say) since the
         # last tick are handed on here: tick() is the only place outputs leave the core.
         self._out.log = self.report.take_log()
+        if self.camera.want_trigger:
+            self._out.frame_at_ns = self.camera.trigger_ns
         self._out.trigger_camera, self.camera.want_trigger = self.camera.want_trigger, False
         self._out.request_replan, self.planner.want_replan = self.planner.want_replan, False
         return self._out
@@ -379,7 +381,6 @@ class ExecutorCore:
         arrived, camera.arrived = camera.arrived, None
         if arrived is not None:
             return self._judge_frame(arrived)
-        camera.due(self._now, self.inbox.tcp, force=True)  # not passed on the way: now
         if camera.on_the_way and camera.trigger_ns is None:  # no frame was needed
             return observe.go_on(self.planner.pending)
         return None

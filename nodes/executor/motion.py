@@ -224,3 +224,17 @@ def blend_overlap(current: LinearMove, following: LinearMove, radius: float) -> 
     starting = following.duration - following.time_left_within(
         max(0.0, following.length - radius))
     return min(ending, starting, current.profile.ramp, following.profile.ramp)
+
+
+#: A descent counts as stopped by something below when the TCP came down at least this far
+#: (m) over its end's x, y (within BLOCKED_XY_M): an arm that does not move at all is not.
+BLOCKED_DROP_M = 0.005
+BLOCKED_XY_M = 0.01
+
+
+def stopped_on_the_way_down(top: float, end: ToolPose, measured: ToolPose, tol: float
+                             ) -> bool:
+    """The TCP went down from height ``top`` over ``end`` and stopped above it (it stands on
+    something)."""
+    over = math.hypot(measured.x - end.x, measured.y - end.y) <= BLOCKED_XY_M
+    return over and end.z + tol < measured.z < top - BLOCKED_DROP_M

@@ -17,7 +17,6 @@ looks now and then for the planner.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from msgs_py import BlockSet, Plan
@@ -56,10 +55,6 @@ from nodes.executor.visibility import (
     script_samples,
 )
 
-#: On the way, the frame is taken when the measured tool comes this close to the pose picked
-#: for it (m), or passes it within PASSING_M.
-AT_POSE_M = 0.01
-PASSING_M = 0.05
 #: The arm rounds a look waypoint within this (m) instead of stopping on it.
 WAYPOINT_BLEND_M = 0.04
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
@@ -81,10 +76,6 @@ class Camera:
     arrived: BlockSet | None = None  #: the detection, come while the arm moved on
     want_trigger: bool = False  #: for the next tick's outputs
     last_idle_look: float | None = None
-    #: on the way: trigger where the measured tool passes this pose (the arm follows its
-    #: setpoints a servo delay and more behind: the script's time would be early)
-    trigger_near: ToolPose | None = None
-    near_dist: float = math.inf  #: how close the measured tool has come to it so far (m)
     on_the_way: bool = False  #: the frame is taken with the arm in view, moving on
     judge: frozenset[int] = frozenset()  #: on the way: blocks the frame must show uncovered
 
@@ -94,26 +85,12 @@ class Camera:
             self.triggers = 0
         self.trigger_ns = None
         self.arrived = None
-        self.trigger_near = None
-        self.near_dist = math.inf
         self.on_the_way = False
         self.judge = frozenset()
 
-    def due(self, now: float, tcp: ToolPose | None, force: bool = False) -> bool:
-        """Trigger now if the measured tool ``tcp`` is at the pose picked on the way, or has
-        passed it (it came within PASSING_M and goes away again), or ``force``."""
-        if self.trigger_near is None:
-            return False
-        dist = math.inf if tcp is None else tcp.distance_to(self.trigger_near)
-        passed = self.near_dist < PASSING_M and dist > self.near_dist
-        self.near_dist = min(self.near_dist, dist)
-        if not (force or dist < AT_POSE_M or passed):
-            return False
-        self.trigger_near = None
-        self.trigger(now)
-        return True
-
     def trigger(self, now: float) -> None:
+        """A frame taken at ``now`` (s) or later counts: asked for now, it may be of a moment
+        to come (the camera's frame at that stamp, the sim's render then)."""
         self.triggers += 1
         self.trigger_time = now
         self.trigger_ns = round(now * 1e9)
@@ -172,7 +149,8 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
         report.count("looks_from_waypoint")
     camera.begin(Purpose.AFTER_ACTION)
     camera.on_the_way, camera.judge = True, frozenset(need)
-    camera.trigger_near = next(p for t, p in samples if t >= at)
+    # the arm plays the script ``arm_delay_s`` behind it: the frame of the moment it gets there
+    camera.trigger(now + at + cfg.arm_delay_s)
     return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
 
 

@@ -78,6 +78,27 @@ class Player:
         self.commanded = tick.setpoint
         return tick
 
+    def ahead(self, now: float, lead: float, spacing: float) -> list[tuple[float, ToolPose]]:
+        """The setpoints the script streams after ``now``, every ``spacing`` up to ``lead``
+        ahead (stamp s, pose), as far as its motion goes without waiting on anything (a dry
+        run: it stops where a move waits for the measured tool, or a grip for the fingers).
+        Sent ahead, they let the arm run on a stream ``lead`` long while the next tick is on
+        its way; whatever happens meanwhile replaces them (docs/contracts.md,
+        /arm/cartesian_path). No hold is streamed ahead: the arm would play it even after
+        the wait was over."""
+        if self.runner is None or lead <= 0.0:
+            return []
+        dry = self.runner.fork()
+        out: list[tuple[float, ToolPose]] = []
+        for k in range(1, round(lead / spacing) + 1):
+            tick = dry.update(now - self._lag + k * spacing, None)
+            if tick.fault is not None:
+                break
+            out.append((now + k * spacing, tick.setpoint))
+            if tick.waiting:
+                break
+        return out
+
     def retry(self, before: Sequence[Step]) -> None:
         """Play ``before``, then the current step again (``StepRunner.retry_current``)."""
         assert self.runner is not None

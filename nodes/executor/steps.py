@@ -19,9 +19,9 @@ that cannot go on says why as a ``StepFault``.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import enum
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -40,6 +40,7 @@ from nodes.executor.motion import (
     ToolPose,
     blend_overlap,
     braking_move,
+    stopped_on_the_way_down,
 )
 
 
@@ -146,6 +147,7 @@ class Tick:
     done: bool
     fault: StepFault | None = None
     label: str = ""
+    waiting: bool = False  #: a dry run stands where the script waits (the tool, the fingers)
 
     @property
     def error(self) -> str:
@@ -180,6 +182,19 @@ class StepRunner:
         self._gripper_sent = False
         self._gaps: list[tuple[float, float]] = []
         self.finished_steps: list[Step] = []  #: steps that ended in the last update
+        #: a dry run (``fork``): what the script streams next if nothing happens; a move that
+        #: waits for the measured tool, or a grip for the fingers, holds there
+        self.dry = False
+
+    def fork(self) -> StepRunner:
+        """A dry-run copy from where this one stands, for the setpoints ahead."""
+        dry = copy.copy(self)
+        dry.steps = list(self.steps)
+        dry._blending = list(self._blending)
+        dry._gaps = []
+        dry.finished_steps = []
+        dry.dry = True
+        return dry
 
     @property
     def finished(self) -> bool:
@@ -309,6 +324,8 @@ class StepRunner:
         converge = step.converge if isinstance(step, Move) else not isinstance(step, Brake)
         if not converge or self._blending:
             return Tick(setpoint, None, not self._blending, label=step.label)
+        if self.dry:
+            return Tick(move.end, None, False, label=step.label, waiting=True)
         if measured is not None and measured.distance_to(move.end) <= self.tol:
             return Tick(move.end, None, True, label=step.label)
         late = self._measured_at - (self._t0 + move.duration)
@@ -319,7 +336,7 @@ class StepRunner:
             end = move.end
             blocked = (isinstance(step, Move) and step.onto is not None
                        and measured is not None
-                       and _stopped_on_the_way_down(step.onto, end, measured, self.tol))
+                       and stopped_on_the_way_down(step.onto, end, measured, self.tol))
             kind = StepFaultKind.BLOCKED if blocked else StepFaultKind.NOT_CONVERGED
             return Tick(end, None, False, StepFault(
                 kind, f"step '{step.label}': TCP did not reach ({end.x:.4f}, {end.y:.4f}, "
@@ -350,6 +367,8 @@ class StepRunner:
         measured = [(s, g) for s, g in self._gaps if s >= t0]
         if not step.wait:
             done = True
+        elif self.dry:
+            return Tick(self.commanded, gripper, False, label=step.label, waiting=True)
         elif not measured:
             done = t >= step.settle_s
         else:
@@ -379,17 +398,3 @@ class StepRunner:
         self.index += 1
         self._t0 = None
         self._move = None
-
-
-#: A descent counts as stopped by something below when the TCP came down at least this far
-#: (m) over its end's x, y (within BLOCKED_XY_M): an arm that does not move at all is not.
-BLOCKED_DROP_M = 0.005
-BLOCKED_XY_M = 0.01
-
-
-def _stopped_on_the_way_down(top: float, end: ToolPose, measured: ToolPose, tol: float
-                             ) -> bool:
-    """The TCP went down from height ``top`` over ``end`` and stopped above it (it stands on
-    something)."""
-    over = math.hypot(measured.x - end.x, measured.y - end.y) <= BLOCKED_XY_M
-    return over and end.z + tol < measured.z < top - BLOCKED_DROP_M

@@ -79,7 +79,8 @@ class DriverSide:
             return
         commanded = self.world().commanded_until()
         if commanded is not None:
-            self.pacer.on_command(*commanded)
+            until, moving, start = commanded
+            self.pacer.on_command(until, moving, start=start)
 
     def _on_knuckle(self, msg: Float64MultiArray) -> None:
         """The Robotiq position controller: one value, the knuckle joint (rad)."""

@@ -228,16 +228,16 @@ class TrajectoryController:
         """A trajectory is being played (not holding after its last point)."""
         return self._current is not None or self._pending is not None
 
-    def ends_at(self, now: float) -> tuple[float, bool] | None:
+    def ends_at(self, now: float) -> tuple[float, bool, float] | None:
         """How far ahead the trajectory playing (or about to) commands the arm (s, unscaled),
-        and whether it moves it; None: none. A moving one commands up to the end of its
-        motion (the hold that may follow is not motion commanded); one that holds still, up
-        to its last point before a trailing pad (``Trajectory.hold_end``)."""
+        whether it moves it, and when it starts; None: none. A moving one commands up to the
+        end of its motion (the hold that may follow is not motion commanded); one that holds
+        still, up to its last point before a trailing pad (``Trajectory.hold_end``)."""
         traj = self._pending or self._current
         if traj is None:
             return None
-        moves = traj.moves
-        return (traj.start_s or now) + (traj.motion_end if moves else traj.hold_end), moves
+        moves, start = traj.moves, traj.start_s or now
+        return start + (traj.motion_end if moves else traj.hold_end), moves, start
 
     def update(self, now: float, dt: float, scaling: float, q_measured: np.ndarray,
                v_measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

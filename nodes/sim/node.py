@@ -29,7 +29,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from densepack_interfaces.msg import BlockPoseArray, Disturbance, SimEvents, SimFault
+from densepack_interfaces.msg import BlockPoseArray, SimEvents
 from densepack_interfaces.msg import ExecutorStatus as ExecutorStatusMsg
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
@@ -42,7 +42,7 @@ from visualization_msgs.msg import MarkerArray
 
 from msgs_py import BlockSet, MessageError
 from msgs_py import ros as msg_codecs
-from msgs_py.ros import block_set_to_markers, ns_to_stamp
+from msgs_py.ros import block_set_to_markers, ns_to_stamp, stamp_to_ns
 from msgs_py.ros.image import (
     array_to_compressed_image,
     array_to_image,
@@ -55,6 +55,7 @@ from nodes.common.qos import LATCHED, RELIABLE, camera_qos
 from nodes.common.runner import NodeSpec, run_node
 from nodes.sim.config import SIM_PARAMETERS, CameraConfig, RandomSceneConfig, SimConfig
 from nodes.sim.driver_side import DriverSide
+from nodes.sim.fault_inputs import FaultInputs
 from nodes.sim.layout import load_sim_scene, scene_problems
 from nodes.sim.pacing import LoopTimes, Pacer, period_steps
 from nodes.sim.world import SimWorld
@@ -91,7 +92,7 @@ class SimNode(Node):
         self._stop = threading.Event()
         self._wake = threading.Event()  # a command came: the loop may step again
         self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_margin_s)
-        self._blackout_until_ns = 0
+        self._frames_due: list[int] = []  # render requests (ns) the clock has not reached
         self._stopped_opening_since: float | None = None  # sim s; -1: logged
         self._make_interfaces()
         self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
@@ -138,12 +139,7 @@ class SimNode(Node):
         # Volatile on purpose: it matches the executor whether it latches its status or not.
         self.create_subscription(ExecutorStatusMsg, "/executor/status", self._on_status,
                                  RELIABLE, callback_group=group)
-        self.create_subscription(SimFault, "/sim/fault", self._on_fault, RELIABLE,
-                                 callback_group=group)
-        self.create_subscription(Disturbance, "/sim/disturb", self._on_disturb, RELIABLE,
-                                 callback_group=group)
-        self.create_subscription(Float64, "/sim/camera_blackout", self._on_blackout, RELIABLE,
-                                 callback_group=group)
+        self.faults = FaultInputs(self, lambda: self.world, self._queue, group)
         self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
 
     # --- callbacks (any executor thread): validate, then queue ----------------------------------
@@ -160,8 +156,11 @@ class SimNode(Node):
         self._queue(lambda: self.world.set_speed_slider(fraction))
 
     def _on_render_request(self, msg: Header) -> None:
-        """A frame now (sim only: a real camera streams); the frame's stamp says when."""
-        self._queue(self._publish_camera)
+        """A frame of the moment the header's stamp names, or now if it has passed (sim
+        only: a real camera streams, and its frame of that moment is the first stamped
+        after it); the frame's stamp says when it was taken."""
+        at = stamp_to_ns(msg.header.stamp)
+        self._queue(lambda: self._frames_due.append(at))
 
     def _on_status(self, msg: ExecutorStatusMsg) -> None:
         try:
@@ -171,56 +170,12 @@ class SimNode(Node):
             return
         self._queue(lambda: self.world.set_manipulated(status.block))
 
-    def _on_disturb(self, msg: Disturbance) -> None:
-        try:
-            nudge = msg_codecs.disturbance_from_msg(msg)
-        except (MessageError, ValueError) as err:
-            self.get_logger().warning(f"/sim/disturb refused: {err}")
-            return
-
-        def apply() -> None:
-            try:
-                self.world.hand.disturb(nudge.block, nudge.dx, nudge.dy)
-            except ValueError as err:
-                self.get_logger().warning(f"/sim/disturb refused: {err}")
-        self._queue(apply)
-
-    def _on_fault(self, msg: SimFault) -> None:
-        """Fault injection: arm a drop, slip or miss for the next action, take a block out,
-        put one in, or change the camera's noise."""
-        try:
-            fault = msg_codecs.sim_fault_from_msg(msg)
-        except (MessageError, ValueError) as err:
-            self.get_logger().warning(f"/sim/fault refused: {err}")
-            return
-
-        def apply() -> None:
-            try:
-                self.world.hand.inject(fault)
-            except ValueError as err:
-                self.get_logger().warning(f"/sim/fault refused: {err}")
-                return
-            self.get_logger().warning(f"fault injected: {fault.kind} "
-                                      f"{'' if fault.block is None else fault.block}")
-        self._queue(apply)
-
-    def _on_blackout(self, msg: Float64) -> None:
-        """Fault injection: drop every camera frame for the next ``msg.data`` sim seconds."""
-        seconds = float(msg.data)
-        if not math.isfinite(seconds) or seconds < 0:
-            self.get_logger().warning(f"/sim/camera_blackout refused: {seconds} s")
-            return
-
-        def apply() -> None:
-            self._blackout_until_ns = self.world.time_ns + round(seconds * 1e9)
-            self.get_logger().warning(f"camera frames dropped for {seconds:.1f} s (fault)")
-        self._queue(apply)
-
     def _on_reset(self, request, response):
         def apply() -> str:
             scene = self._load_scene()
             (self.world.lay_out if self.config.reset_scene_only else self.world.reset)(scene)
             self.pacer.restart(self.world.time_s)
+            self._frames_due.clear()
             self.scene = scene
             self._publish_events()
             return f"reset: {len(scene.blocks)} blocks at t = {self.world.time_s:.3f} s"
@@ -258,6 +213,7 @@ class SimNode(Node):
                 t0 = time.monotonic()
                 while self._commands:
                     self._commands.popleft()()
+                self._render_due()
                 now = time.monotonic()
                 times.add("commands", now - t0)
                 wait = self.pacer.wait_before_step(self.world.time_s, now)
@@ -272,6 +228,7 @@ class SimNode(Node):
                     shared = time.monotonic()
                 self.world.step()
                 t1 = time.monotonic()
+                self._render_due()
                 self._publish_due(every)
                 self.drivers.publish_robot_state()
                 t2 = time.monotonic()
@@ -284,6 +241,13 @@ class SimNode(Node):
                 if not self.context.ok():
                     break  # shutting down: publishers are gone
                 self.get_logger().error(f"sim loop error: {type(err).__name__}: {err}")
+
+    def _render_due(self) -> None:
+        """Render once for every requested moment the clock has reached."""
+        due = [at for at in self._frames_due if at <= self.world.time_ns]
+        if due:
+            self._frames_due = [at for at in self._frames_due if at > self.world.time_ns]
+            self._publish_camera()
 
     def _publish_due(self, every: dict[str, int]) -> None:
         k = self.world.step_count
@@ -340,7 +304,7 @@ class SimNode(Node):
 
     def _publish_camera(self) -> int:
         stamp_ns = self.world.time_ns
-        if stamp_ns < self._blackout_until_ns:
+        if stamp_ns < self.faults.blackout_until_ns:
             return stamp_ns  # a dropped frame: nothing rendered, nothing published
         rgb = self.world.render()
         self.pacer.restart(self.world.time_s)  # the render's wall time is not simulated time

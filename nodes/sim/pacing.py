@@ -12,7 +12,9 @@ say what the arm does until their end:
   time has stopped: the floor below applies again.
 * while the newest command holds the arm still, the same lockstep holds for as long as the
   commander keeps sending (it holds the arm while it waits for something the robot does: the
-  fingers closing, the tool settling), but gives up after ``hold_stall_wall_s``: a commander
+  fingers closing, the tool settling), but no further than ``HOLD_LEAD_S`` past the command's
+  start, however far ahead it holds (the commander waits for an event and reacts to it only
+  as fast as this lets it see it), and it gives up after ``hold_stall_wall_s``: a commander
   that has gone quiet is waiting for something that is not the robot's.
 * when no command is in force (the executor waits for a detection or a plan: work whose
   duration is the machine's, not the robot's), simulated time passes at ``real_time_factor``
@@ -34,6 +36,9 @@ import time
 STALL_WALL_S = 0.5
 #: A commander holding the arm still that sends nothing this long (wall s) has gone quiet.
 HOLD_STALL_WALL_S = 0.1
+#: A command that holds the arm still lets the sim run at most this far past its start (s):
+#: whoever sent it waits for something the robot does, and sees it this much later at most.
+HOLD_LEAD_S = 0.08
 #: While waiting for a commander, look again this often (wall s).
 LOCKSTEP_POLL_S = 0.002
 
@@ -51,6 +56,7 @@ class Pacer:
         self.commanded_until: float | None = None
         self.moving = False  #: the newest command moves the arm
         self.waiting = "floor"  #: why the last wait (lockstep: a command is due; floor)
+        self._command_start: float | None = None
         self._command_wall: float | None = None
         self._wall0 = 0.0
         self._sim0 = 0.0
@@ -63,15 +69,23 @@ class Pacer:
         self._started = True
         if self.commanded_until is not None and self.commanded_until > sim_time + 1.0:
             self.commanded_until = None  # from before a reset
+            self._command_start = None
             self.moving = False
 
     def on_command(self, until: float | None, moving: bool = True,
-                   wall_time: float | None = None) -> None:
-        """A motion command arrived that says what to do up to ``until`` (simulated s)."""
+                   wall_time: float | None = None, start: float | None = None) -> None:
+        """A motion command arrived that says what to do up to ``until`` (simulated s); one
+        that holds still counts no further than HOLD_LEAD_S past its ``start``."""
         if until is None:
             return
         self._command_wall = time.monotonic() if wall_time is None else wall_time
-        if self.commanded_until is None or until >= self.commanded_until:
+        if start is not None:  # a trajectory replaces the one before it (if not older)
+            if self._command_start is not None and start < self._command_start:
+                return
+            self._command_start = start
+            self.commanded_until = until if moving else min(until, start + HOLD_LEAD_S)
+            self.moving = moving
+        elif self.commanded_until is None or until >= self.commanded_until:
             self.commanded_until = until
             self.moving = moving
 

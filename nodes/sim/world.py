@@ -221,14 +221,14 @@ class SimWorld:
             return "the robot program is not running: the command is not executed"
         return self.motion.receive(values, self.time_s)
 
-    def commanded_until(self) -> tuple[float, bool] | None:
-        """Until when (simulated s) the motion commands received say what to do, and whether
-        they move the arm (pacing): the end of the trajectory playing, or a while after the
+    def commanded_until(self) -> tuple[float, bool, float] | None:
+        """Until when (simulated s) the motion commands received say what to do, whether they
+        move the arm, and from when (pacing): the trajectory playing, or a while after the
         newest forward command."""
         if isinstance(self.motion, TrajectoryController):
             return self.motion.ends_at(self.time_s)
         at = self.motion.last_command_at
-        return None if at is None else (at + FORWARD_COMMAND_S, self.motion.active)
+        return None if at is None else (at + FORWARD_COMMAND_S, self.motion.active, at)
 
     def dashboard(self, command: str) -> DashboardAnswer:
         """A dashboard call (``unlock_protective_stop``, ``stop``, ``play`` ...)."""

@@ -61,6 +61,7 @@ class World:
         self.camera_delay = camera_delay
         self.camera_works = camera_works
         self.pending: list[tuple[float, int]] = []
+        self.frames_asked: list[float] = []  # moments (s) the camera is to take a frame of
         self.replan_requests = 0
         self.on_replan: Callable[[], Plan | None] = lambda: None
         self.disturb: Callable[[int], None] = lambda actions_done: None
@@ -114,7 +115,10 @@ class World:
                     self.blocks[action.block] = self.core.belief.expected[action.block]
                 done_before = done
                 self.disturb(done)
-            if out.trigger_camera and self.camera_works:
+            if out.trigger_camera and self.camera_works:  # a frame of now, or of a moment
+                self.frames_asked.append(max(t, (out.frame_at_ns or 0) * 1e-9))  # to come
+            for at in [a for a in self.frames_asked if a <= t + 1e-9]:
+                self.frames_asked.remove(at)
                 tool = self.core.player.commanded
                 self.trigger_poses.append(tool)
                 hidden = frozenset(self.hides(tool))

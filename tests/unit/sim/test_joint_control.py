@@ -126,8 +126,8 @@ def test_the_sim_paces_on_a_motions_end_but_on_a_holds_last_unpadded_point():
     moving = [(0.02, q0, [0.0] * 6, [], []), (0.06, q1, [0.0] * 6, [], []),
               (0.08, q1, [0.0] * 6, [], []), (0.58, q1, [0.0] * 6, [], [])]
     assert not ctrl.receive(list(JOINTS), 10.0, moving, now=10.0)
-    assert ctrl.ends_at(10.0) == (pytest.approx(10.06), True)
+    assert ctrl.ends_at(10.0) == (pytest.approx(10.06), True, 10.0)
     holding = [(0.02, q1, [0.0] * 6, [], []), (0.08, q1, [0.0] * 6, [], []),
                (0.58, q1, [0.0] * 6, [], [])]
     assert not ctrl.receive(list(JOINTS), 10.02, holding, now=10.02)
-    assert ctrl.ends_at(10.02) == (pytest.approx(10.10), False)
+    assert ctrl.ends_at(10.02) == (pytest.approx(10.10), False, 10.02)

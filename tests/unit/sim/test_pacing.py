@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from nodes.sim.pacing import LOCKSTEP_POLL_S, Pacer
+from nodes.sim.pacing import HOLD_LEAD_S, LOCKSTEP_POLL_S, Pacer
 
 
 def test_without_commands_time_follows_the_real_time_factor():
@@ -62,3 +62,17 @@ def test_a_commander_that_stops_mid_motion_falls_back_to_the_floor():
 def test_a_zero_factor_runs_free():
     pacer = Pacer(real_time_factor=0.0, margin=0.03)
     assert pacer.wait_before_step(123.0, 0.0) == 0.0
+
+
+def test_a_hold_far_ahead_counts_only_a_short_lead_past_its_start():
+    """A commander holding the arm waits for an event: the sim may not run far past it."""
+    pacer = Pacer(real_time_factor=1.0, margin=0.03, hold_stall_wall_s=0.1)
+    pacer.restart(0.0, wall_time=100.0)
+    pacer.on_command(5.5, moving=False, wall_time=100.0, start=5.0)
+    assert pacer.commanded_until == pytest.approx(5.0 + HOLD_LEAD_S)
+    pacer.on_command(5.5, moving=True, wall_time=100.0, start=5.02)  # motion counts whole
+    assert pacer.commanded_until == pytest.approx(5.5)
+    pacer.on_command(5.6, moving=False, wall_time=100.0, start=5.04)  # the newest replaces it
+    assert pacer.commanded_until == pytest.approx(5.04 + HOLD_LEAD_S) and not pacer.moving
+    pacer.on_command(5.9, moving=True, wall_time=100.0, start=5.03)  # an older one: nothing
+    assert pacer.commanded_until == pytest.approx(5.04 + HOLD_LEAD_S)
