@@ -159,7 +159,10 @@ class SimNode(Node):
         """A frame of the moment the header's stamp names, or now if it has passed (sim
         only: a real camera streams, and its frame of that moment is the first stamped
         after it); the frame's stamp says when it was taken."""
-        at = stamp_to_ns(msg.header.stamp)
+        try:
+            at = stamp_to_ns(msg.stamp)
+        except (MessageError, ValueError):
+            at = 0  # a stamp that says nothing: now
         self._queue(lambda: self._frames_due.append(at))
 
     def _on_status(self, msg: ExecutorStatusMsg) -> None:
