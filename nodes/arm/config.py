@@ -20,9 +20,9 @@ class ArmConfig:
         50.0, "how often a command goes to the driver (on the node's clock: sim time in the "
         "sim cell)", unit="Hz")
     horizon_s: float = param(
-        0.2, "each trajectory snippet covers at most this much of the commanded motion ahead "
-        "of now (no further than the newest setpoint's stamp + servo_delay_s: the playback "
-        "cannot run ahead of the setpoints)", unit="s")
+        0.08, "each trajectory snippet covers this much of the commanded motion ahead of now; "
+        "at most servo_delay_s (the playback cannot run further ahead of the setpoints)",
+        unit="s")
     point_spacing_s: float = param(0.02, "time between a snippet's points", unit="s")
     servo_delay_s: float = param(
         0.08, "streamed setpoints are played back this far behind their stamps, interpolated "
@@ -52,9 +52,9 @@ class ArmConfig:
                      "dashboard_timeout_s"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.point_spacing_s <= self.horizon_s:
+        if not self.point_spacing_s <= self.horizon_s <= self.servo_delay_s:
             raise ValueError(f"need point_spacing_s ({self.point_spacing_s}) <= horizon_s "
-                             f"({self.horizon_s})")
+                             f"({self.horizon_s}) <= servo_delay_s ({self.servo_delay_s})")
         if not 1.0 / self.control_rate_hz <= self.point_spacing_s:
             raise ValueError("point_spacing_s must be at least one control step")
         if not 0.0 < self.speed_scale <= 1.0:

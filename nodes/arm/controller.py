@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,41 +135,6 @@ class ArmController:
         if not ik.ok:
             return None, ik.reason
         return ik.q, ""
-
-    def set_path(self, points: Sequence[tuple[Sequence[float], Sequence[float], str, float]]
-                 ) -> SetpointResult:
-        """A stamped run of TCP poses (position, quaternion xyzw, frame_id, stamp s, in stamp
-        order) that *replaces* the stream from its first stamp on, as a trajectory replaces
-        the last on a UR's trajectory controller: a commander streams the setpoints it knows
-        ahead and sends them again where they changed. The part before the playback point is
-        the past and stays. Every pose is checked and solved first; one that fails refuses the
-        whole path and the arm holds, as for a setpoint."""
-        if self.stopped:
-            self.rejected += 1
-            return SetpointResult(False, f"protective stop ({self.stopped}): unlock it first")
-        solved: list[tuple[float, np.ndarray]] = []
-        reference = self.stream[-1][1] if self.stream else self.q_cmd
-        for position, quat, frame_id, stamp_s in points:
-            q, reason = self._check_and_solve(position, quat, frame_id, reference)
-            if q is None:
-                self.rejected += 1
-                self.last_reason = reason
-                self.hold()
-                return SetpointResult(False, reason)
-            solved.append((self._stamp(stamp_s), q))
-            reference = q
-        if not solved:
-            return SetpointResult(True)
-        keep_before = solved[0][0]
-        if self.playback is not None:
-            keep_before = max(keep_before, self.playback + 1e-9)
-        while self.stream and self.stream[-1][0] >= keep_before:
-            self.stream.pop()
-        for t, q in solved:
-            if t >= keep_before:
-                self._enqueue(t, q)
-        self.accepted += len(solved)
-        return SetpointResult(True)
 
     def _stamp(self, stamp_s: float | None) -> float:
         """The setpoint's time on the stream: its stamp, unless missing or far from now."""

@@ -102,17 +102,6 @@ class ArmCore:
             self.streamer.on_setpoint(stamp_s)
         return result
 
-    def on_path(self, points) -> SetpointResult:
-        """Stamped TCP poses (position, quaternion, frame_id, stamp) that replace the stream
-        from their first stamp on (``ArmController.set_path``)."""
-        if self.state.state not in TAKES_SETPOINTS or not self._synced:
-            self.controller.rejected += 1
-            return SetpointResult(False, f"the arm is not ready: {self.state.reason}")
-        result = self.controller.set_path(points)
-        if result.accepted and points:
-            self.streamer.on_setpoint(points[-1][3])
-        return result
-
     def request_unlock(self, now: float) -> tuple[bool, str]:
         """Someone (the executor) asks to get out of a protective stop."""
         if self.unlock is not None:

@@ -19,7 +19,6 @@ from typing import Any
 
 from densepack_interfaces.msg import ArmStatus
 from geometry_msgs.msg import PoseStamped
-from nav_msgs.msg import Path
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -62,8 +61,6 @@ class ArmNode(Node):
         # the executor's side
         self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self.on_setpoint,
                                  RELIABLE, callback_group=inputs)
-        self.create_subscription(Path, "/arm/cartesian_path", self.on_path, RELIABLE,
-                                 callback_group=inputs)
         self.create_service(Trigger, "/arm/unlock_protective_stop", self.on_unlock,
                             callback_group=inputs)
         self.pub_tcp = self.create_publisher(PoseStamped, "/arm/tcp_pose", RELIABLE)
@@ -143,19 +140,6 @@ class ArmNode(Node):
         # streams (the sim waits for it; a real arm would slow down).
         self.tick(min_gap=0.5 / self.config.command_rate_hz)
 
-    def on_path(self, msg: Path) -> None:
-        """Stamped setpoints that replace the stream from the first one's stamp on."""
-        try:
-            points = [(*pose_from_msg(p), stamp_seconds(p.header.stamp) or None)
-                      for p in msg.poses]
-        except (MessageError, ValueError) as err:
-            self.get_logger().warning(f"/arm/cartesian_path refused: {err}",
-                                      throttle_duration_sec=1.0)
-            return
-        with self.lock:
-            result = self.core.on_path(points)
-        self._after_setpoints(result, [round(v, 4) for v in points[0][0]] if points else [])
-
     def on_unlock(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
             response.success, response.message = self.core.request_unlock(self._now())
@@ -224,8 +208,7 @@ class ArmNode(Node):
 
 
 TOPICS = """
-subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world: the executor's stream),
-  /arm/cartesian_path (nav_msgs/Path: stamped setpoints replacing the stream from the first);
+subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world: the executor's stream);
   from ur_robot_driver: /joint_states (by name), /speed_scaling_state_broadcaster/speed_scaling
   (percent), /io_and_status_controller/{safety_mode, robot_mode, robot_program_running}
 publishes:  /scaled_joint_trajectory_controller/joint_trajectory (trajectory_msgs/

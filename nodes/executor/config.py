@@ -14,15 +14,10 @@ from nodes.executor.motion import Limits, ToolPose
 class ExecutorConfig:
     rate_hz: float = param(50.0, "setpoint streaming rate (on ROS time); the arm controller "
                            "interpolates between setpoints", unit="Hz")
-    stream_lead_s: float = param(
-        0.1, "with each setpoint, stream the script's setpoints this far ahead as far as they "
-        "wait on nothing (/arm/cartesian_path; each path replaces what was sent for its "
-        "stamps): the arm runs on them if a tick comes late (0 = one setpoint a tick on "
-        "/arm/cartesian_setpoint)", unit="s")
     arm_delay_s: float = param(
         0.08, "how far behind their stamps the arm plays the setpoints (the arm node's "
-        "servo_delay_s): a frame asked for on the way is of the moment the arm gets there",
-        unit="s")
+        "servo_delay_s), until the lag is measured on a move: a frame asked for on the way is "
+        "of the moment the arm gets there", unit="s")
     auto_start: bool = param(True, "start executing as soon as a plan arrives")
     travel_height: float = param(
         cell.TRAVEL_HEIGHT,

@@ -55,7 +55,7 @@ from nodes.executor.inputs import Inbox
 from nodes.executor.ledger import activity_of
 from nodes.executor.motion import ToolPose
 from nodes.executor.observe import Camera
-from nodes.executor.player import Player
+from nodes.executor.player import ArmLag, Player
 from nodes.executor.recovery import holds_block
 from nodes.executor.replan import PlannerLink
 from nodes.executor.report import Report, executor_status
@@ -73,6 +73,7 @@ class ExecutorCore:
         self.belief = Belief(camera_checked=not cfg.camera_check)
         self.inbox = Inbox()
         self.player = Player(cfg)
+        self.arm_lag = ArmLag(cfg.arm_delay_s)
         self.camera = Camera()
         self.planner = PlannerLink()
         self.tries = Tries()
@@ -100,7 +101,8 @@ class ExecutorCore:
         self._handlers: dict[type, Callable[[Any], Decision | None]] = {
             Observe: lambda d: observe.observe(d, self.camera, self.belief, cfg, self._here),
             LookOnTheWay: lambda d: observe.look_on_the_way(
-                self.camera, self.belief, cfg, self.view, self._here, self._now, self.report),
+                self.camera, self.belief, cfg, self.view, self._here, self._now,
+                self.arm_lag.value, self.report),
             LookHere: lambda d: observe.look_here(d, self.camera, self._now),
             NextAction: lambda d: act.next_action(self.belief, cfg, self.report),
             StartPlan: lambda d: replan.start_plan(d, self.belief, self.planner, self.tries, cfg,
@@ -221,9 +223,6 @@ class ExecutorCore:
             self._play(now)
         elif self.state is not State.IDLE and self.state in self._at_rest:
             self._decide(self._at_rest[self.state]())  # a script it starts streams next tick
-        if self._out.setpoint is not None and self.player.busy:
-            self._out.ahead = self.player.ahead(now, self.cfg.stream_lead_s,
-                                                1.0 / self.cfg.rate_hz)
         readings = self.inbox.take_readings()
         if readings:  # judged while a script plays; otherwise only the latest counts
             self.supervisor.last = readings[-1]
@@ -245,6 +244,8 @@ class ExecutorCore:
         inbox = self.inbox
         tick = self.player.advance(now, inbox.tcp, inbox.tcp_stamp, inbox.take_gaps())
         self._out.setpoint, self._out.gripper = tick.setpoint, tick.gripper
+        self.arm_lag.on_setpoint(now, tick.setpoint)
+        self.arm_lag.on_measured(inbox.tcp_stamp, inbox.tcp)
         fault = tick.fault
         if fault is None:
             fault, placement = faults.supervise(

@@ -27,7 +27,6 @@ from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from nav_msgs.msg import Path
 from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo
 from std_msgs.msg import Float64, Header
@@ -70,9 +69,7 @@ subscribes: /plan (densepack_interfaces/Plan, latched),
             /camera/camera_info (sensor_msgs/CameraInfo: a frame was taken; the lens, to
             predict what the arm covers), /detector/calibration (diagnostic_msgs/
             DiagnosticStatus, latched: checked recently, the camera check is skipped)
-publishes:  /arm/cartesian_path (nav_msgs/Path: the setpoint now and the script's next
-            ones, stream_lead_s ahead; /arm/cartesian_setpoint, geometry_msgs/PoseStamped,
-            with stream_lead_s 0),
+publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
             /gripper/command (std_msgs/Float64),
             /executor/status (densepack_interfaces/ExecutorStatus, latched),
             /executor/placements (densepack_interfaces/Placement: blocks set down),
@@ -95,7 +92,6 @@ class ExecutorNode(Node):
         self.core = ExecutorCore(self.config)
         self.lock = threading.Lock()
         self.setpoint_pub = self.create_publisher(PoseStamped, "/arm/cartesian_setpoint", RELIABLE)
-        self.path_pub = self.create_publisher(Path, "/arm/cartesian_path", RELIABLE)
         self.gripper_pub = self.create_publisher(Float64, "/gripper/command", RELIABLE)
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
@@ -241,12 +237,7 @@ class ExecutorNode(Node):
             status = self.core.status()
         for line in out.log:
             self.get_logger().info(line)
-        if out.setpoint is not None and out.ahead:
-            path = Path(header=Header(stamp=now.to_msg(), frame_id="world"))
-            path.poses = [self._setpoint_msg(out.setpoint, now.nanoseconds)] + [
-                self._setpoint_msg(pose, round(stamp * 1e9)) for stamp, pose in out.ahead]
-            self.path_pub.publish(path)
-        elif out.setpoint is not None:
+        if out.setpoint is not None:
             self.setpoint_pub.publish(self._setpoint_msg(out.setpoint, now.nanoseconds))
         if out.gripper is not None:
             self.gripper_pub.publish(Float64(data=float(out.gripper)))

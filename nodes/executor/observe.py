@@ -123,7 +123,8 @@ def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
 
 
 def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: View | None,
-                    here: ToolPose | None, now: float, report: Report) -> Decision:
+                    here: ToolPose | None, now: float, arm_lag: float, report: Report
+                    ) -> Decision:
     """After an action: head for the next action's block at once, and take the frame at the
     moment on the way that shows the blocks the next action needs judged (and most of the
     others not seen since an action near them); with no such moment, pass a point on the way
@@ -149,8 +150,9 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
         report.count("looks_from_waypoint")
     camera.begin(Purpose.AFTER_ACTION)
     camera.on_the_way, camera.judge = True, frozenset(need)
-    # the arm plays the script ``arm_delay_s`` behind it: the frame of the moment it gets there
-    camera.trigger(now + at + cfg.arm_delay_s)
+    # the arm plays the script ``arm_lag`` behind it (from the next tick on): the frame of the
+    # moment it gets there
+    camera.trigger(now + at + arm_lag + 1.0 / cfg.rate_hz)
     return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import collections
+import statistics
 from collections.abc import Sequence
 
 from nodes.executor.config import ExecutorConfig
@@ -78,27 +80,6 @@ class Player:
         self.commanded = tick.setpoint
         return tick
 
-    def ahead(self, now: float, lead: float, spacing: float) -> list[tuple[float, ToolPose]]:
-        """The setpoints the script streams after ``now``, every ``spacing`` up to ``lead``
-        ahead (stamp s, pose), as far as its motion goes without waiting on anything (a dry
-        run: it stops where a move waits for the measured tool, or a grip for the fingers).
-        Sent ahead, they let the arm run on a stream ``lead`` long while the next tick is on
-        its way; whatever happens meanwhile replaces them (docs/contracts.md,
-        /arm/cartesian_path). No hold is streamed ahead: the arm would play it even after
-        the wait was over."""
-        if self.runner is None or lead <= 0.0:
-            return []
-        dry = self.runner.fork()
-        out: list[tuple[float, ToolPose]] = []
-        for k in range(1, round(lead / spacing) + 1):
-            tick = dry.update(now - self._lag + k * spacing, None)
-            if tick.fault is not None:
-                break
-            out.append((now + k * spacing, tick.setpoint))
-            if tick.waiting:
-                break
-        return out
-
     def retry(self, before: Sequence[Step]) -> None:
         """Play ``before``, then the current step again (``StepRunner.retry_current``)."""
         assert self.runner is not None
@@ -114,3 +95,42 @@ class Player:
     def drop(self) -> None:
         """Stream nothing more of the script."""
         self.runner, self.then = None, None
+
+
+#: How many recent setpoints (one a tick) the arm's lag is looked for among.
+LAG_HISTORY = 60
+#: Only while the setpoints move at least this fast (m/s) does a measurement say the lag.
+LAG_MIN_SPEED = 0.05
+
+
+class ArmLag:
+    """How far behind the setpoints the arm really is (s): its servo delay, its controller's
+    tracking, a loaded machine's latency. Measured while the arm moves: the measured tool's
+    stamp less the stamp of the setpoint nearest it; the median of the last few."""
+
+    def __init__(self, default: float) -> None:
+        self.default = default
+        self._setpoints: collections.deque[tuple[float, ToolPose]] = collections.deque(
+            maxlen=LAG_HISTORY)
+        self._samples: collections.deque[float] = collections.deque(maxlen=25)
+
+    def on_setpoint(self, stamp: float, pose: ToolPose) -> None:
+        self._setpoints.append((stamp, pose))
+
+    def on_measured(self, stamp: float | None, tcp: ToolPose | None) -> None:
+        if stamp is None or tcp is None or len(self._setpoints) < 3:
+            return
+        (t0, p0), (t1, p1) = self._setpoints[-2], self._setpoints[-1]
+        if t1 <= t0 or p1.distance_to(p0) / (t1 - t0) < LAG_MIN_SPEED:
+            return
+        nearest = min(self._setpoints, key=lambda s: s[1].distance_to(tcp))
+        if nearest is self._setpoints[0] or nearest is self._setpoints[-1]:
+            return  # the arm is beyond the history's reach: says nothing
+        self._samples.append(stamp - nearest[0])
+
+    @property
+    def value(self) -> float:
+        """The median lag measured lately (s), or the default before any."""
+        if not self._samples:
+            return self.default
+        return float(statistics.median(self._samples))

@@ -86,8 +86,6 @@ class Outputs:
     """Side effects the node must carry out after a tick."""
 
     setpoint: ToolPose | None = None
-    #: the setpoints after it, (stamp s, pose), as far as the script knows them
-    ahead: list[tuple[float, ToolPose]] = field(default_factory=list)
     gripper: float | None = None
     trigger_camera: bool = False
     frame_at_ns: int | None = None  #: the frame asked for is of this moment (None: now)

@@ -19,7 +19,6 @@ that cannot go on says why as a ``StepFault``.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import enum
 from collections.abc import Sequence
@@ -147,7 +146,6 @@ class Tick:
     done: bool
     fault: StepFault | None = None
     label: str = ""
-    waiting: bool = False  #: a dry run stands where the script waits (the tool, the fingers)
 
     @property
     def error(self) -> str:
@@ -182,19 +180,6 @@ class StepRunner:
         self._gripper_sent = False
         self._gaps: list[tuple[float, float]] = []
         self.finished_steps: list[Step] = []  #: steps that ended in the last update
-        #: a dry run (``fork``): what the script streams next if nothing happens; a move that
-        #: waits for the measured tool, or a grip for the fingers, holds there
-        self.dry = False
-
-    def fork(self) -> StepRunner:
-        """A dry-run copy from where this one stands, for the setpoints ahead."""
-        dry = copy.copy(self)
-        dry.steps = list(self.steps)
-        dry._blending = list(self._blending)
-        dry._gaps = []
-        dry.finished_steps = []
-        dry.dry = True
-        return dry
 
     @property
     def finished(self) -> bool:
@@ -324,8 +309,6 @@ class StepRunner:
         converge = step.converge if isinstance(step, Move) else not isinstance(step, Brake)
         if not converge or self._blending:
             return Tick(setpoint, None, not self._blending, label=step.label)
-        if self.dry:
-            return Tick(move.end, None, False, label=step.label, waiting=True)
         if measured is not None and measured.distance_to(move.end) <= self.tol:
             return Tick(move.end, None, True, label=step.label)
         late = self._measured_at - (self._t0 + move.duration)
@@ -367,8 +350,6 @@ class StepRunner:
         measured = [(s, g) for s, g in self._gaps if s >= t0]
         if not step.wait:
             done = True
-        elif self.dry:
-            return Tick(self.commanded, gripper, False, label=step.label, waiting=True)
         elif not measured:
             done = t >= step.settle_s
         else:

@@ -214,28 +214,3 @@ def test_time_the_speed_slider_took_is_not_caught_up():
     run(ctrl, 0.1)
     # at full speed again the playback goes on at the clock's pace, no faster
     assert ctrl.playback - before == pytest.approx(0.1, abs=2 * DT)
-
-
-def test_a_path_replaces_the_stream_from_its_first_stamp_and_keeps_the_past():
-    ctrl = ArmController(HOME_JOINTS, servo_delay_s=0.08)
-    quat = tool_down_quaternion(0.0)
-    ctrl.set_setpoint([0.6, -0.2, 0.1], quat, stamp_s=0.0)
-    run(ctrl, 3.0)
-    ctrl.now = 10.0
-
-    def path(t0: float, ys) -> list:
-        return [([0.6, y, 0.1], quat, "world", t0 + 0.02 * k) for k, y in enumerate(ys)]
-
-    assert ctrl.set_path(path(10.0, [-0.2, -0.19, -0.18, -0.17, -0.16])).accepted
-    stamps = [t for t, _ in ctrl.stream]
-    assert stamps[-1] == pytest.approx(10.08)
-    # the next tick's path starts later and goes elsewhere: it replaces from its first stamp
-    assert ctrl.set_path(path(10.04, [-0.18, -0.18, -0.18, -0.18, -0.18])).accepted
-    stamps = [t for t, _ in ctrl.stream]
-    assert stamps[-1] == pytest.approx(10.12) and len(stamps) == len(set(stamps))
-    ys = [tcp_pose(q)[1, 3] for t, q in ctrl.stream if t >= 10.04 - 1e-9]
-    assert np.allclose(ys, -0.18, atol=1e-6)
-    # a path with a pose below the safety plane is refused whole and the arm holds
-    bad = path(10.06, [-0.18, -0.17]) + [([0.6, -0.16, -0.05], quat, "world", 10.10)]
-    result = ctrl.set_path(bad)
-    assert not result.accepted and "safety plane" in result.reason and not ctrl.stream

@@ -31,29 +31,18 @@ def test_a_held_up_executor_resumes_its_trajectory_where_it_was():
     assert 0.0 < biggest <= 2.0 * DT * CFG.speed * 1.01
 
 
-def test_the_setpoints_ahead_follow_the_script_and_hold_where_it_waits():
-    """Ahead of the clock the script streams what it will do if nothing happens: along a
-    move, then holding where a move waits for the measured tool or a grip for the fingers."""
-    from nodes.executor.decisions import ActionDone, Script
+def test_the_arm_lag_is_measured_where_the_arm_moves():
     from nodes.executor.motion import ToolPose
-    from nodes.executor.player import Player
-    from nodes.executor.steps import Grip, Move
+    from nodes.executor.player import ArmLag
 
-    start = ToolPose(0.5, 0.0, 0.1, 0.0)
-    end = ToolPose(0.6, 0.0, 0.1, 0.0)
-    lift = ToolPose(0.6, 0.0, 0.2, 0.0)
-    player = Player(CFG)
-    player.start(Script([Move(end, CFG.travel_limits, "out"), Grip(0.0, 0.3, "grip"),
-                         Move(lift, CFG.travel_limits, "up")], ActionDone()), 0.0, start)
-    player.advance(0.0, start, 0.0, [])
-    ahead = player.ahead(0.0, 0.1, 0.02)
-    assert [round(t, 3) for t, _ in ahead] == [0.02, 0.04, 0.06, 0.08, 0.1]
-    xs = [p.x for _, p in ahead]
-    assert all(a <= b for a, b in zip(xs, xs[1:], strict=False)) and xs[-1] > start.x
-    # at the move's end: it holds there (the measured tool has not come), never lifts
-    t = 0.0
-    while player.runner.current_step.label == "out":
-        t += 0.02
-        tick = player.advance(t, tick.setpoint if t > 0.02 else start, t, [])
-    far = player.ahead(t, 0.5, 0.02)
-    assert len(far) == 1 and far[0][1].distance_to(end) < 1e-9  # no hold streamed ahead
+    lag = ArmLag(default=0.08)
+    assert lag.value == 0.08
+    for k in range(40):  # setpoints 1 cm apart every 20 ms; the arm 7 ticks (0.14 s) behind
+        lag.on_setpoint(k * 0.02, ToolPose(0.5 + 0.01 * k, 0.0, 0.1, 0.0))
+        if k >= 7:
+            lag.on_measured(k * 0.02, ToolPose(0.5 + 0.01 * (k - 7), 0.0, 0.1, 0.0))
+    assert abs(lag.value - 0.14) < 1e-9
+    for k in range(40, 60):  # standing still says nothing
+        lag.on_setpoint(k * 0.02, ToolPose(0.9, 0.0, 0.1, 0.0))
+        lag.on_measured(k * 0.02, ToolPose(0.9, 0.0, 0.1, 0.0))
+    assert abs(lag.value - 0.14) < 1e-9
