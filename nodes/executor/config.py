@@ -14,10 +14,6 @@ from nodes.executor.motion import Limits, ToolPose
 class ExecutorConfig:
     rate_hz: float = param(50.0, "setpoint streaming rate (on ROS time); the arm controller "
                            "interpolates between setpoints", unit="Hz")
-    arm_delay_s: float = param(
-        0.08, "how far behind their stamps the arm plays the setpoints (the arm node's "
-        "servo_delay_s), until the lag is measured on a move: a frame asked for on the way is "
-        "of the moment the arm gets there", unit="s")
     auto_start: bool = param(True, "start executing as soon as a plan arrives")
     travel_height: float = param(
         cell.TRAVEL_HEIGHT,

@@ -55,7 +55,7 @@ from nodes.executor.inputs import Inbox
 from nodes.executor.ledger import activity_of
 from nodes.executor.motion import ToolPose
 from nodes.executor.observe import Camera
-from nodes.executor.player import ArmLag, Player
+from nodes.executor.player import Player
 from nodes.executor.recovery import holds_block
 from nodes.executor.replan import PlannerLink
 from nodes.executor.report import Report, executor_status
@@ -73,7 +73,6 @@ class ExecutorCore:
         self.belief = Belief(camera_checked=not cfg.camera_check)
         self.inbox = Inbox()
         self.player = Player(cfg)
-        self.arm_lag = ArmLag(cfg.arm_delay_s)
         self.camera = Camera()
         self.planner = PlannerLink()
         self.tries = Tries()
@@ -101,8 +100,7 @@ class ExecutorCore:
         self._handlers: dict[type, Callable[[Any], Decision | None]] = {
             Observe: lambda d: observe.observe(d, self.camera, self.belief, cfg, self._here),
             LookOnTheWay: lambda d: observe.look_on_the_way(
-                self.camera, self.belief, cfg, self.view, self._here, self._now,
-                self.arm_lag.value, self.report),
+                self.camera, self.belief, cfg, self.view, self._here, self._now, self.report),
             LookHere: lambda d: observe.look_here(d, self.camera, self._now),
             NextAction: lambda d: act.next_action(self.belief, cfg, self.report),
             StartPlan: lambda d: replan.start_plan(d, self.belief, self.planner, self.tries, cfg,
@@ -217,6 +215,9 @@ class ExecutorCore:
             self._started_at = now
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
+        if self.state is State.OBSERVING and self.camera.due(now, self.inbox.tcp):
+            self.report.log(f"frame on the way, the tool {self.camera.near_dist * 1e3:.0f} mm "
+                            "from the pose picked for it")
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:
@@ -232,8 +233,6 @@ class ExecutorCore:
         # Requests made by input callbacks (a detection that calls for a replan, say) since the
         # last tick are handed on here: tick() is the only place outputs leave the core.
         self._out.log = self.report.take_log()
-        if self.camera.want_trigger:
-            self._out.frame_at_ns = self.camera.trigger_ns
         self._out.trigger_camera, self.camera.want_trigger = self.camera.want_trigger, False
         self._out.request_replan, self.planner.want_replan = self.planner.want_replan, False
         return self._out
@@ -244,8 +243,6 @@ class ExecutorCore:
         inbox = self.inbox
         tick = self.player.advance(now, inbox.tcp, inbox.tcp_stamp, inbox.take_gaps())
         self._out.setpoint, self._out.gripper = tick.setpoint, tick.gripper
-        self.arm_lag.on_setpoint(now, tick.setpoint)
-        self.arm_lag.on_measured(inbox.tcp_stamp, inbox.tcp)
         fault = tick.fault
         if fault is None:
             fault, placement = faults.supervise(
@@ -382,6 +379,7 @@ class ExecutorCore:
         arrived, camera.arrived = camera.arrived, None
         if arrived is not None:
             return self._judge_frame(arrived)
+        camera.due(self._now, self.inbox.tcp, force=True)  # not passed on the way: now
         if camera.on_the_way and camera.trigger_ns is None:  # no frame was needed
             return observe.go_on(self.planner.pending)
         return None

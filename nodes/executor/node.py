@@ -39,7 +39,6 @@ from msgs_py.ros import (
     block_set_from_msg,
     executor_status_to_msg,
     gripper_status_from_msg,
-    ns_to_stamp,
     placement_to_msg,
     plan_from_msg,
     planner_status_from_msg,
@@ -238,24 +237,23 @@ class ExecutorNode(Node):
         for line in out.log:
             self.get_logger().info(line)
         if out.setpoint is not None:
-            self.setpoint_pub.publish(self._setpoint_msg(out.setpoint, now.nanoseconds))
+            self.setpoint_pub.publish(self._setpoint_msg(out.setpoint, now))
         if out.gripper is not None:
             self.gripper_pub.publish(Float64(data=float(out.gripper)))
         if out.placement is not None:
             self.placement_pub.publish(placement_to_msg(out.placement))
         if out.trigger_camera:
-            at_ns = max(now.nanoseconds, out.frame_at_ns or 0)
-            self._frame_after_ns = at_ns
-            self.render_pub.publish(Header(stamp=ns_to_stamp(at_ns)))
+            self._frame_after_ns = now.nanoseconds
+            self.render_pub.publish(Header(stamp=now.to_msg()))
         if out.request_replan:
             self._call(self.replanner, "/planner/replan")
         if out.unlock_arm:
             self._call(self.unlocker, "/arm/unlock_protective_stop")
         self._publish_status(status, now)
 
-    def _setpoint_msg(self, pose: ToolPose, stamp_ns: int) -> PoseStamped:
+    def _setpoint_msg(self, pose: ToolPose, now) -> PoseStamped:
         msg = PoseStamped()
-        msg.header.stamp = ns_to_stamp(stamp_ns)
+        msg.header.stamp = now.to_msg()
         msg.header.frame_id = "world"
         msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = pose.x, pose.y, pose.z
         q = tool_down_quaternion(pose.yaw)

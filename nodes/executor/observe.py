@@ -17,6 +17,7 @@ looks now and then for the planner.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from msgs_py import BlockSet, Plan
@@ -55,6 +56,10 @@ from nodes.executor.visibility import (
     script_samples,
 )
 
+#: On the way, the frame is taken when the measured tool comes this close to the pose picked
+#: for it (m), or passes it within PASSING_M.
+AT_POSE_M = 0.01
+PASSING_M = 0.05
 #: The arm rounds a look waypoint within this (m) instead of stopping on it.
 WAYPOINT_BLEND_M = 0.04
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
@@ -76,6 +81,10 @@ class Camera:
     arrived: BlockSet | None = None  #: the detection, come while the arm moved on
     want_trigger: bool = False  #: for the next tick's outputs
     last_idle_look: float | None = None
+    #: on the way: trigger where the measured tool passes this pose (the arm follows its
+    #: setpoints a servo delay and more behind: the script's time would be early)
+    trigger_near: ToolPose | None = None
+    near_dist: float = math.inf  #: how close the measured tool has come to it so far (m)
     on_the_way: bool = False  #: the frame is taken with the arm in view, moving on
     judge: frozenset[int] = frozenset()  #: on the way: blocks the frame must show uncovered
 
@@ -85,12 +94,26 @@ class Camera:
             self.triggers = 0
         self.trigger_ns = None
         self.arrived = None
+        self.trigger_near = None
+        self.near_dist = math.inf
         self.on_the_way = False
         self.judge = frozenset()
 
+    def due(self, now: float, tcp: ToolPose | None, force: bool = False) -> bool:
+        """Trigger now if the measured tool ``tcp`` is at the pose picked on the way, or has
+        passed it (it came within PASSING_M and goes away again), or ``force``."""
+        if self.trigger_near is None:
+            return False
+        dist = math.inf if tcp is None else tcp.distance_to(self.trigger_near)
+        passed = self.near_dist < PASSING_M and dist > self.near_dist
+        self.near_dist = min(self.near_dist, dist)
+        if not (force or dist < AT_POSE_M or passed):
+            return False
+        self.trigger_near = None
+        self.trigger(now)
+        return True
+
     def trigger(self, now: float) -> None:
-        """A frame taken at ``now`` (s) or later counts: asked for now, it may be of a moment
-        to come (the camera's frame at that stamp, the sim's render then)."""
         self.triggers += 1
         self.trigger_time = now
         self.trigger_ns = round(now * 1e9)
@@ -123,8 +146,7 @@ def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
 
 
 def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: View | None,
-                    here: ToolPose | None, now: float, arm_lag: float, report: Report
-                    ) -> Decision:
+                    here: ToolPose | None, now: float, report: Report) -> Decision:
     """After an action: head for the next action's block at once, and take the frame at the
     moment on the way that shows the blocks the next action needs judged (and most of the
     others not seen since an action near them); with no such moment, pass a point on the way
@@ -150,9 +172,7 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
         report.count("looks_from_waypoint")
     camera.begin(Purpose.AFTER_ACTION)
     camera.on_the_way, camera.judge = True, frozenset(need)
-    # the arm plays the script ``arm_lag`` behind it (from the next tick on): the frame of the
-    # moment it gets there
-    camera.trigger(now + at + arm_lag + 1.0 / cfg.rate_hz)
+    camera.trigger_near = next(p for t, p in samples if t >= at)
     return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import collections
-import statistics
 from collections.abc import Sequence
 
 from nodes.executor.config import ExecutorConfig
@@ -95,42 +93,3 @@ class Player:
     def drop(self) -> None:
         """Stream nothing more of the script."""
         self.runner, self.then = None, None
-
-
-#: How many recent setpoints (one a tick) the arm's lag is looked for among.
-LAG_HISTORY = 60
-#: Only while the setpoints move at least this fast (m/s) does a measurement say the lag.
-LAG_MIN_SPEED = 0.05
-
-
-class ArmLag:
-    """How far behind the setpoints the arm really is (s): its servo delay, its controller's
-    tracking, a loaded machine's latency. Measured while the arm moves: the measured tool's
-    stamp less the stamp of the setpoint nearest it; the median of the last few."""
-
-    def __init__(self, default: float) -> None:
-        self.default = default
-        self._setpoints: collections.deque[tuple[float, ToolPose]] = collections.deque(
-            maxlen=LAG_HISTORY)
-        self._samples: collections.deque[float] = collections.deque(maxlen=25)
-
-    def on_setpoint(self, stamp: float, pose: ToolPose) -> None:
-        self._setpoints.append((stamp, pose))
-
-    def on_measured(self, stamp: float | None, tcp: ToolPose | None) -> None:
-        if stamp is None or tcp is None or len(self._setpoints) < 3:
-            return
-        (t0, p0), (t1, p1) = self._setpoints[-2], self._setpoints[-1]
-        if t1 <= t0 or p1.distance_to(p0) / (t1 - t0) < LAG_MIN_SPEED:
-            return
-        nearest = min(self._setpoints, key=lambda s: s[1].distance_to(tcp))
-        if nearest is self._setpoints[0] or nearest is self._setpoints[-1]:
-            return  # the arm is beyond the history's reach: says nothing
-        self._samples.append(stamp - nearest[0])
-
-    @property
-    def value(self) -> float:
-        """The median lag measured lately (s), or the default before any."""
-        if not self._samples:
-            return self.default
-        return float(statistics.median(self._samples))

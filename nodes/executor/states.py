@@ -88,7 +88,6 @@ class Outputs:
     setpoint: ToolPose | None = None
     gripper: float | None = None
     trigger_camera: bool = False
-    frame_at_ns: int | None = None  #: the frame asked for is of this moment (None: now)
     request_replan: bool = False
     placement: Placement | None = None  #: a block the arm just set down, and where
     unlock_arm: bool = False  #: call /arm/unlock_protective_stop

@@ -94,18 +94,19 @@ def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = No
 def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
                 blocks: Mapping[int, Pose2D], need: set[int], wanted: set[int]
                 ) -> float | None:
-    """The sample time at which the arm covers none of ``need``, nor at the sample after it
-    (the frame comes a few ticks after the arm passes the pose: it must still show them), and
-    the fewest of ``wanted`` (the earliest of those), their poses in ``blocks``; None if it
-    covers one of ``need`` at every such pair of samples, or, with nothing needed, every one
-    of ``wanted`` at every sample."""
+    """The sample time at which the arm covers none of ``need``, nor at the samples before
+    and after it (the arm's timing is known to a tick or two: the frame must show them a
+    little early or late too), and the fewest of ``wanted`` (the earliest of those), their
+    poses in ``blocks``; None if it covers one of ``need`` around every sample, or, with
+    nothing needed, every one of ``wanted`` at every sample."""
     looked = {i: blocks[i] for i in need | wanted if i in blocks}
     postures = arm_postures([pose for _, pose in samples])
     covered = [None if q is None else view.covered(q, looked) for q in postures]
     best: tuple[int, float] | None = None
     for k, (t, _) in enumerate(samples):
-        now, after = covered[k], covered[min(k + 1, len(covered) - 1)]
-        if now is None or after is None or (now | after) & need:
+        around = covered[max(k - 1, 0):k + 2]
+        now = covered[k]
+        if now is None or any(c is None or c & need for c in around):
             continue
         if not need and now >= set(looked):
             continue

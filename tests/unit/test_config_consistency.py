@@ -40,8 +40,3 @@ def test_executor_accepts_what_the_planner_leaves_near_its_goal():
 def test_executor_parks_where_the_sim_keeps_the_camera_clear():
     sim, executor = params("sim.yaml"), params("executor.yaml")
     assert executor["park_pose"][:3] == pytest.approx(sim["park_position"])
-
-
-def test_the_executor_knows_how_far_behind_its_setpoints_the_arm_plays_them():
-    arm, executor = params("arm.yaml"), params("executor.yaml")
-    assert executor["arm_delay_s"] == pytest.approx(arm["servo_delay_s"])

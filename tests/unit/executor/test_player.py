@@ -29,20 +29,3 @@ def test_a_held_up_executor_resumes_its_trajectory_where_it_was():
             last = out.setpoint
             core.on_tcp(out.setpoint)
     assert 0.0 < biggest <= 2.0 * DT * CFG.speed * 1.01
-
-
-def test_the_arm_lag_is_measured_where_the_arm_moves():
-    from nodes.executor.motion import ToolPose
-    from nodes.executor.player import ArmLag
-
-    lag = ArmLag(default=0.08)
-    assert lag.value == 0.08
-    for k in range(40):  # setpoints 1 cm apart every 20 ms; the arm 7 ticks (0.14 s) behind
-        lag.on_setpoint(k * 0.02, ToolPose(0.5 + 0.01 * k, 0.0, 0.1, 0.0))
-        if k >= 7:
-            lag.on_measured(k * 0.02, ToolPose(0.5 + 0.01 * (k - 7), 0.0, 0.1, 0.0))
-    assert abs(lag.value - 0.14) < 1e-9
-    for k in range(40, 60):  # standing still says nothing
-        lag.on_setpoint(k * 0.02, ToolPose(0.9, 0.0, 0.1, 0.0))
-        lag.on_measured(k * 0.02, ToolPose(0.9, 0.0, 0.1, 0.0))
-    assert abs(lag.value - 0.14) < 1e-9

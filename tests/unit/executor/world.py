@@ -115,8 +115,8 @@ class World:
                     self.blocks[action.block] = self.core.belief.expected[action.block]
                 done_before = done
                 self.disturb(done)
-            if out.trigger_camera and self.camera_works:  # a frame of now, or of a moment
-                self.frames_asked.append(max(t, (out.frame_at_ns or 0) * 1e-9))  # to come
+            if out.trigger_camera and self.camera_works:
+                self.frames_asked.append(t)
             for at in [a for a in self.frames_asked if a <= t + 1e-9]:
                 self.frames_asked.remove(at)
                 tool = self.core.player.commanded
