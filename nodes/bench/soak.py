@@ -83,7 +83,8 @@ class SoakCell:
     """One cell for the whole shift, and the calls that lay out each new scene."""
 
     def __init__(self, context: Context, first: Scene, workdir: Path, log) -> None:
-        self.cell = CellRun(save_scene(first, workdir / "scene_first.yaml"), log)
+        self.cell = CellRun(save_scene(first, workdir / "scene_first.yaml"), log,
+                            paused_start=False)
         self.monitor = RunMonitor(context)
         node = self.monitor.node
         self.set_params = node.create_client(SetParameters, "/sim/set_parameters")

@@ -22,6 +22,8 @@ from nodes.common.runner import LAUNCHER_PID_ENV
 #: mid-run waits for its client to send the goal again instead of resuming on its own.
 ACTION_CELL_WITHOUT = ("goal",)
 ACTION_CELL_PARAMS = {"executor": {"auto_start": False}}
+#: A run's sim holds its clock until the run starts it (``nodes.cell.run.SimStarter``).
+PAUSED_START = {"sim": {"start_paused": True}}
 
 
 class CellRun:
@@ -30,11 +32,15 @@ class CellRun:
     file's ``respawn`` says (``supervise``)."""
 
     def __init__(self, scene_file: Path, log: IO[str], cell_file: str = "cell.yaml",
-                 extra_ros_args: tuple[str, ...] = (), remote: tuple[str, ...] = ()) -> None:
-        """``remote``: nodes of the cell file that run on another computer (not started)."""
+                 extra_ros_args: tuple[str, ...] = (), remote: tuple[str, ...] = (),
+                 paused_start: bool = True) -> None:
+        """``remote``: nodes of the cell file that run on another computer (not started);
+        ``paused_start``: the sim holds its clock until ``/sim/start`` (a run calls it)."""
         launches, missing = load_cell(config_path(cell_file), (),
                                       {"scene_file": str(scene_file)},
-                                      (*ACTION_CELL_WITHOUT, *remote), ACTION_CELL_PARAMS)
+                                      (*ACTION_CELL_WITHOUT, *remote),
+                                      {**ACTION_CELL_PARAMS, **(PAUSED_START if paused_start
+                                                                 else {})})
         if missing:
             raise RuntimeError(f"the cell is incomplete: {', '.join(missing)} not implemented")
         self.launches: dict[str, NodeLaunch] = {launch.name: launch for launch in launches}

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rclpy.executors import SingleThreadedExecutor
+from std_srvs.srv import Trigger
 
 from msgs_py import BlockSet, Scene
 from nodes.cell.discovery import DiscoveryWatch, discovery_hint, graph_view
@@ -70,6 +71,31 @@ def check_goal(scene: Scene, cell_file: str = "cell.yaml") -> Scene:
     return layout
 
 
+#: The nodes whose latched statuses say they are up before the sim's clock is started.
+UP_BEFORE_START = frozenset({"executor", "planner", "arm", "detector"})
+
+
+class SimStarter:
+    """Starts the sim's clock (``/sim/start``) once every node of the run is up: a sim started
+    paused (``start_paused``) then charges the run no simulated time for the seconds its
+    processes take to start. A sim that runs already answers so; none at all (a real cell)
+    is never called."""
+
+    def __init__(self, monitor: RunMonitor) -> None:
+        self.monitor = monitor
+        self.client = monitor.node.create_client(Trigger, "/sim/start")
+        self.asked = False
+
+    def step(self) -> None:
+        if self.asked or not self.client.service_is_ready():
+            return
+        with self.monitor.lock:
+            up = set(self.monitor.up)
+        if up >= UP_BEFORE_START:
+            self.client.call_async(Trigger.Request())
+            self.asked = True
+
+
 def run(
     cell: CellRun,
     monitor: RunMonitor,
@@ -84,6 +110,7 @@ def run(
     executor = SingleThreadedExecutor(context=monitor.node.context)
     executor.add_node(monitor.node)
     sender = GoalSender(monitor, layout)
+    starter = SimStarter(monitor)
     wall0 = time.monotonic()
     looked = -math.inf
     outcome = "timeout"
@@ -106,6 +133,7 @@ def run(
                     outcome = "unreachable"
                     sender.cancel(lambda: executor.spin_once(timeout_sec=0.1), UNREACHABLE_CANCEL_S)
                     break
+            starter.step()
             sender.step(time.monotonic())
             on_progress(monitor, time.monotonic() - wall0)
             if sender.outcome:

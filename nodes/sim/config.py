@@ -90,6 +90,10 @@ class SimConfig:
     gripper_latency_s: float = param(
         0.02, "time from a knuckle command to the gripper acting on it (2F-85 on Modbus RTU: "
         "a request/response cycle of a few ms plus the driver's polling)", unit="s")
+    start_paused: bool = param(
+        False, "hold the clock at 0 until /sim/start is called: a launcher that starts the "
+        "cell's processes calls it once they are up, so no simulated time passes while they "
+        "start (the state topics go on, stamped 0)")
     reset_scene_only: bool = param(
         False, "what /sim/reset does: true lays out a new scene (scene_file and random.* as "
         "they are at the call) and clears the events, leaving the clock, the arm, the fingers "

@@ -74,6 +74,8 @@ GIL_SHARE_EVERY_S = 0.002
 GIL_SHARE_S = 0.0002
 
 
+#: Held at 0 (start_paused), the clock and the joint states go out this often (wall s).
+PAUSED_STATE_S = 0.1
 #: gOBJ code of fingers that stopped on something while opening: logged with what they touch.
 STOPPED_OPENING = GRIPPER_OBJECT_STATES.index("stopped_opening")
 STALL_LOG_S = 0.2
@@ -93,6 +95,7 @@ class SimNode(Node):
         self._wake = threading.Event()  # a command came: the loop may step again
         self.pacer = Pacer(self.config.real_time_factor, self.config.lockstep_margin_s)
         self._frames_due: list[int] = []  # render requests (ns) the clock has not reached
+        self._paused = self.config.start_paused  # until /sim/start
         self._stopped_opening_since: float | None = None  # sim s; -1: logged
         self._make_interfaces()
         self._thread = threading.Thread(target=self._loop, name="sim-loop", daemon=True)
@@ -141,6 +144,7 @@ class SimNode(Node):
                                  RELIABLE, callback_group=group)
         self.faults = FaultInputs(self, lambda: self.world, self._queue, group)
         self.create_service(Trigger, "/sim/reset", self._on_reset, callback_group=group)
+        self.create_service(Trigger, "/sim/start", self._on_start, callback_group=group)
 
     # --- callbacks (any executor thread): validate, then queue ----------------------------------
     def _queue(self, command: Callable[[], None]) -> None:
@@ -172,6 +176,13 @@ class SimNode(Node):
             self.get_logger().warning(f"ignoring a malformed /executor/status: {err}")
             return
         self._queue(lambda: self.world.set_manipulated(status.block))
+
+    def _on_start(self, request, response):
+        def apply() -> str:
+            was, self._paused = self._paused, False
+            self.pacer.restart(self.world.time_s)
+            return "started" if was else "running already"
+        return self._answer(apply, response)
 
     def _on_reset(self, request, response):
         def apply() -> str:
@@ -219,6 +230,12 @@ class SimNode(Node):
                 self._render_due()
                 now = time.monotonic()
                 times.add("commands", now - t0)
+                if self._paused:  # the clock held: its ticks and the joint states go on
+                    self.pub_clock.publish(Clock(clock=ns_to_stamp(self.world.time_ns)))
+                    self._publish_state()
+                    self._wake.wait(PAUSED_STATE_S)
+                    self._wake.clear()
+                    continue
                 wait = self.pacer.wait_before_step(self.world.time_s, now)
                 if wait > 0.0:
                     self._wake.wait(min(wait, MAX_IDLE_WAIT_S))

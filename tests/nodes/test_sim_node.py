@@ -360,3 +360,36 @@ def test_reset_lays_out_the_scene_its_parameters_name_now_and_keeps_the_clock(ro
     assert not response.success and "random.seed" in response.message  # ... refused here
     ros.wait_for_message("/sim/ground_truth", BlockPoseArray, lambda m: len(m.blocks) == 4,
                          timeout=30)  # nothing half-applied
+
+
+def test_a_render_request_for_a_moment_to_come_is_rendered_when_the_clock_gets_there(ros):
+    make_sim(ros, real_time_factor=1.0)
+    stamps: list[int] = []
+    ros.probe.create_subscription(CameraInfo, "/camera/camera_info",
+                                  lambda m: stamps.append(stamp_to_ns(m.header.stamp)),
+                                  qos_profile_sensor_data)
+    now = stamp_to_ns(ros.wait_for_message("/clock", Clock, timeout=10).clock)
+    at = now + 1_500_000_000  # 1.5 s of simulated time from now
+    send(ros, "/sim/render_request", Header, Header(stamp=ns_to_stamp(at)))
+    deadline = time.monotonic() + 20
+    while not stamps and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert stamps and at <= stamps[0] < at + 50_000_000  # the first physics step after it
+
+
+def test_a_sim_started_paused_holds_its_clock_until_started(ros):
+    make_sim(ros, start_paused=True)
+    first = ros.wait_for_message("/clock", Clock, timeout=10)
+    assert ros.wait_for_message(drivers.JOINT_STATES, JointState, timeout=10)  # topics flow
+    time.sleep(0.5)
+    assert stamp_to_ns(ros.wait_for_message("/clock", Clock, timeout=10).clock) == \
+        stamp_to_ns(first.clock) == 0
+    answer = ros.call_service("/sim/start", Trigger, timeout=10)
+    assert answer.success and answer.message == "started"
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        if stamp_to_ns(ros.wait_for_message("/clock", Clock, timeout=10).clock) > 0:
+            break
+    else:
+        raise AssertionError("the clock did not start")
+    assert ros.call_service("/sim/start", Trigger, timeout=10).message == "running already"
