@@ -29,6 +29,11 @@ meets (what happens; when):
 - ``camera_noise``: the camera's read noise becomes 20 grey levels (std); from the start.
 - ``calibration``: the detector's camera pose is 5 mm and 0.5 deg (a tilt) off the true one;
   from the start.
+- ``chaos`` (``--chaos``): one of the densepack nodes (executor, planner, detector, arm,
+  gripper; drawn from the scene's seed) is SIGKILLed at a moment drawn too (an action, while
+  it runs or while the camera looks, 0-2 s into it: mid-carry, mid-motion, mid-plan), and
+  the cell file's respawn brings it back, nobody else: the goal must still end done or
+  cleanly failed, nothing in the fingers, no block lost.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -65,7 +71,9 @@ from nodes.sim.layout import random_sim_scene
 
 FAULTS = ("none", "executor_restart", "planner_restart", "detector_restart", "nudge",
           "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
-          "camera_noise", "calibration")
+          "camera_noise", "calibration", "chaos")
+#: The nodes the chaos fault may kill (the sim does not respawn: it is the world).
+CHAOS_NODES = ("executor", "planner", "detector", "arm", "gripper")
 #: The calibration fault: the detector's camera 3, -4, 0 mm off and tilted 0.5 deg.
 CALIBRATION_SHIFT_M = (0.003, -0.004, 0.0)
 CALIBRATION_TILT_DEG = 0.5
@@ -88,6 +96,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--density", type=float, default=0.10,
                         help="block area / workspace area of the random scenes")
     parser.add_argument("--fault", nargs="+", default=["none"], choices=[*FAULTS, "all"])
+    parser.add_argument("--chaos", action="store_true",
+                        help="the chaos fault: a random node SIGKILLed at a random moment of "
+                             "each run, brought back by the cell's respawn (= --fault chaos)")
     parser.add_argument("--timeout", type=float, default=600.0, help="wall limit per scene (s)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--keep", type=Path, default=None,
@@ -97,8 +108,10 @@ def add_arguments(parser) -> None:
 class FaultInjector:
     """Injects one fault into a running cell when the goal's progress calls for it."""
 
-    def __init__(self, name: str, cell: CellRun, monitor: RunMonitor, scene: Scene) -> None:
+    def __init__(self, name: str, cell: CellRun, monitor: RunMonitor, scene: Scene,
+                 seed: int = 0) -> None:
         self.name = name
+        self.chaos = ChaosDraw.of(seed, len(scene.blocks)) if name == "chaos" else None
         self.cell = cell
         self.monitor = monitor
         self.scene = scene
@@ -127,7 +140,12 @@ class FaultInjector:
         running, observing = status.state == "running", status.state == "observing"
         k = status.action_index
         name = self.name
-        if name.endswith("_restart") and running and k >= 2:
+        if self.chaos is not None:
+            if self.chaos.due(status.state, k, wall):
+                self.cell.crash(self.chaos.node)
+                self._fired(f"{self.chaos.node} SIGKILLed while {status.state} (action {k}), "
+                            "left to the cell's respawn")
+        elif name.endswith("_restart") and running and k >= 2:
             node = name.split("_")[0]
             self.cell.kill(node)
             self._restart_at = wall + 2.0
@@ -169,6 +187,29 @@ class FaultInjector:
     def _sim_fault(self, fault: SimFaultRecord, note: str) -> None:
         self._fault.publish(sim_fault_to_msg(fault))
         self._fired(note)
+
+
+@dataclass
+class ChaosDraw:
+    """Which node the chaos fault kills, and when: once the goal's progress reaches action
+    ``action`` in ``state``, ``delay_s`` of wall time later."""
+
+    node: str
+    action: int
+    state: str
+    delay_s: float
+    _reached: float | None = None
+
+    @classmethod
+    def of(cls, seed: int, n_blocks: int) -> ChaosDraw:
+        rng = np.random.default_rng(10_000 + seed)
+        return cls(str(rng.choice(CHAOS_NODES)), int(rng.integers(1, max(2, n_blocks))),
+                   str(rng.choice(["running", "observing"])), float(rng.uniform(0.0, 2.0)))
+
+    def due(self, state: str, action: int, wall: float) -> bool:
+        if self._reached is None and action >= self.action and state == self.state:
+            self._reached = wall
+        return self._reached is not None and wall - self._reached >= self.delay_s
 
 
 def free_spot_in(scene: Scene) -> tuple[float, float]:
@@ -214,7 +255,7 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
             extra = calibration_off_args() if fault == "calibration" else ()
             cell = CellRun(scene_file, log, extra_ros_args=extra)
             monitor = RunMonitor(context)
-            injector = FaultInjector(fault, cell, monitor, scene)
+            injector = FaultInjector(fault, cell, monitor, scene, seed)
             cell.start()
             try:
                 result = run_cell(cell, monitor, layout, timeout, injector)
@@ -286,7 +327,9 @@ def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, 
 
 
 def run(opts, scene_runner: Callable[..., dict[str, Any]] = run_scene) -> list[dict[str, Any]]:
-    faults = list(FAULTS) if "all" in opts.fault else opts.fault
+    faults = [f for f in FAULTS if f != "chaos"] if "all" in opts.fault else opts.fault
+    if opts.chaos:
+        faults = [*(f for f in faults if f != "none"), "chaos"]
     scenes = 2 if opts.quick else (opts.seeds or opts.scenes)
     workdir = opts.keep or Path(tempfile.mkdtemp(prefix="densepack-cell-bench-"))
     workdir.mkdir(parents=True, exist_ok=True)

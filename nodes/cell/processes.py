@@ -84,6 +84,13 @@ class CellRun:
         proc.kill()
         proc.wait()
 
+    def crash(self, name: str) -> None:
+        """SIGKILL one node as a crash would, unasked: the cell file's respawn brings it back
+        (``supervise``), as for any node that dies."""
+        proc = self.procs[name]
+        proc.kill()
+        proc.wait()
+
     def supervise(self) -> str | None:
         """Start again the nodes that ended unasked and may respawn (logged); the reason the
         cell must stop (a node that died and may not, or no longer), or None."""

@@ -67,3 +67,18 @@ def test_a_block_taken_away_succeeds_only_as_a_failure_that_names_it():
 def test_all_is_every_kind_the_issue_names():
     assert {"grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
             "detector_restart", "camera_noise", "calibration"} <= set(FAULTS)
+
+
+def test_chaos_draws_a_node_and_a_moment_from_the_seed_and_fires_after_its_delay():
+    from nodes.bench.cell import CHAOS_NODES, ChaosDraw
+
+    draws = [ChaosDraw.of(seed, 9) for seed in range(30)]
+    assert ChaosDraw.of(3, 9) == draws[3]  # the same seed, the same crash
+    assert {d.node for d in draws} == set(CHAOS_NODES)  # every node gets its turn
+    assert all(1 <= d.action < 9 and 0.0 <= d.delay_s <= 2.0 for d in draws)
+    draw = ChaosDraw("arm", 2, "running", 1.0)
+    assert not draw.due("running", 1, 10.0)  # not yet at its action
+    assert not draw.due("observing", 2, 11.0)  # not in its state
+    assert not draw.due("running", 2, 12.0)  # reached: its delay starts
+    assert not draw.due("running", 2, 12.5)
+    assert draw.due("observing", 3, 13.0)  # a second on, whatever the state by then
