@@ -86,7 +86,7 @@ COLUMNS = [
     "blocks", "fault", "scenes", "success_rate", "pos_err_median_m", "pos_err_max_m",
     "yaw_err_median_deg", "yaw_err_max_deg", "actions_executed_median", "actions_planned_median",
     "corrections", "unintended_contacts", "blocks_lost", "sim_time_median_s",
-    "wall_time_median_s", "wall_time_max_s",
+    "sim_time_per_action_median_s", "wall_time_median_s", "wall_time_max_s",
 ]
 
 
@@ -317,6 +317,11 @@ def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, 
         "unintended_contacts": total("unintended_contacts"),
         "blocks_lost": total("blocks_lost"),
         "sim_time_median_s": median("sim_time_s"),
+        "sim_time_per_action_median_s": statistics.median(
+            [m["sim_time_s"] / m["actions_executed"] for m in runs
+             if m.get("sim_time_s") and m.get("actions_executed")] or [float("nan")]),
+        # per scene: the share of the looks after actions that needed the look pose
+        "look_pose_shares": [look_pose_share(m.get("looks") or {}) for m in runs],
         "wall_time_median_s": median("wall_time_s"),
         "wall_time_max_s": max(m["wall_time_s"] for m in runs),
         "outcomes": [f"seed {m['seed']}: {m['outcome']}"
@@ -324,6 +329,12 @@ def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, 
                      + (f" [{m['last_error']}]" if m.get("last_error") else "")
                      for m in runs],
     }
+
+
+def look_pose_share(looks: dict[str, float]) -> float | None:
+    """Of the looks after actions, the share that needed the look pose (None: no look)."""
+    total = sum(looks.values())
+    return round(looks.get("from_look_pose", 0.0) / total, 3) if total else None
 
 
 def run(opts, scene_runner: Callable[..., dict[str, Any]] = run_scene) -> list[dict[str, Any]]:

@@ -203,6 +203,8 @@ def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[st
         "events": events.to_dict()["events"] if events else [],
         "sim_time_by_activity_s": {k[len("time_"):-2]: v for k, v in figures.items()
                                    if k.startswith("time_") and k.endswith("_s")},
+        # how the actions were looked at: on the way, through a waypoint, from the look pose
+        "looks": {k[len("looks_"):]: v for k, v in figures.items() if k.startswith("looks_")},
         "final_pos_err_max_m": max(pos) if pos else None,
         "final_pos_err_median_m": sorted(pos)[len(pos) // 2] if pos else None,
         "final_yaw_err_max_deg": max(yaw) if yaw else None,

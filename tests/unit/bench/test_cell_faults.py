@@ -82,3 +82,10 @@ def test_chaos_draws_a_node_and_a_moment_from_the_seed_and_fires_after_its_delay
     assert not draw.due("running", 2, 12.0)  # reached: its delay starts
     assert not draw.due("running", 2, 12.5)
     assert draw.due("observing", 3, 13.0)  # a second on, whatever the state by then
+
+
+def test_the_look_pose_share_counts_the_looks_after_actions():
+    from nodes.bench.cell import look_pose_share
+
+    assert look_pose_share({"on_the_way": 3, "from_waypoint": 5, "from_look_pose": 2}) == 0.2
+    assert look_pose_share({}) is None
