@@ -40,7 +40,7 @@ START_S, UNREACHABLE_RUN_S, RUN_S = 180.0, 120.0, 900.0
 
 
 def host_env(peer: str) -> dict[str, str]:
-    keep = ("PATH", "HOME", "PYTHONPATH", "LANG", "VIRTUAL_ENV")
+    keep = ("PATH", "HOME", "PYTHONPATH", "LANG", "VIRTUAL_ENV", "ROS_HOME")
     env = {k: os.environ[k] for k in keep if k in os.environ}
     return {**env, "ROS_DOMAIN_ID": os.environ["ROS_DOMAIN_ID"],
             "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_STATIC_PEERS": peer,
