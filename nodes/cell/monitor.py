@@ -8,11 +8,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from densepack_interfaces.action import Rearrange
-from densepack_interfaces.msg import ArmStatus as ArmStatusMsg
 from densepack_interfaces.msg import BlockPoseArray, ExecutorStatus, SimEvents
 from densepack_interfaces.msg import Plan as PlanMsg
 from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
-from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.action import ActionClient
 from rclpy.node import Node
 from sensor_msgs.msg import Image
@@ -68,11 +66,7 @@ class RunMonitor:
         n.create_subscription(SimEvents, "/sim/events",
                               self._keep("events", sim_events_from_msg), LATCHED)
         n.create_subscription(Image, "/camera/image_raw", self._on_image, SENSOR)
-        # The nodes a run needs up before the sim's clock may start (their latched statuses).
-        self.up: set[str] = set()
-        n.create_subscription(ArmStatusMsg, "/arm/status", self._up("arm"), LATCHED)
-        n.create_subscription(DiagnosticStatus, "/detector/calibration", self._up("detector"),
-                              LATCHED)
+
         # Simulated time comes from the ground truth's stamps (10 Hz), not /clock: a /clock
         # subscription costs a Python callback per message.
         self.rearrange = ActionClient(n, Rearrange, "/rearrange")
@@ -88,12 +82,6 @@ class RunMonitor:
             self.timeline = TimelineBuilder()
             self.since_ns = since_ns
 
-    def _up(self, name: str) -> Callable[[Any], None]:
-        def callback(msg: Any) -> None:
-            with self.lock:
-                self.up.add(name)
-        return callback
-
     def _keep(self, attr: str, decode: Callable[[Any], Any]) -> Callable[[Any], None]:
         def callback(msg: Any) -> None:
             try:
@@ -103,8 +91,6 @@ class RunMonitor:
             with self.lock:
                 if attr == "ground_truth":
                     self.heard["sim"] = time.monotonic()
-                if attr == "planner_status":
-                    self.up.add("planner")
                 if getattr(value, "stamp_ns", self.since_ns) < self.since_ns:
                     return  # the last scene's
                 if attr == "ground_truth":
@@ -124,7 +110,6 @@ class RunMonitor:
         except (MessageError, ValueError):
             return
         with self.lock:
-            self.up.add("executor")
             self.executor_status = status
             # The executor stamps its status with its simulated clock.
             self.timeline.on_status(stamp_to_ns(msg.stamp) * 1e-9, status.state, status.plan_id,

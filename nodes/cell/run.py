@@ -71,27 +71,24 @@ def check_goal(scene: Scene, cell_file: str = "cell.yaml") -> Scene:
     return layout
 
 
-#: The nodes whose latched statuses say they are up before the sim's clock is started.
-UP_BEFORE_START = frozenset({"executor", "planner", "arm", "detector"})
-
-
 class SimStarter:
-    """Starts the sim's clock (``/sim/start``) once every node of the run is up: a sim started
-    paused (``start_paused``) then charges the run no simulated time for the seconds its
-    processes take to start. A sim that runs already answers so; none at all (a real cell)
-    is never called."""
+    """Starts the sim's clock (``/sim/start``) once every node of the run is on the graph: a
+    sim started paused (``start_paused``) then charges the run no simulated time for the
+    seconds its processes take to start. (Their statuses cannot say so: the nodes on the
+    sim's clock publish on its ticks.) A sim that runs already answers so; none at all (a
+    real cell) is never called."""
 
-    def __init__(self, monitor: RunMonitor) -> None:
+    def __init__(self, monitor: RunMonitor, nodes: set[str]) -> None:
         self.monitor = monitor
+        self.nodes = nodes  #: the run's own nodes, but the sim
         self.client = monitor.node.create_client(Trigger, "/sim/start")
         self.asked = False
 
     def step(self) -> None:
         if self.asked or not self.client.service_is_ready():
             return
-        with self.monitor.lock:
-            up = set(self.monitor.up)
-        if up >= UP_BEFORE_START:
+        if {name for name, _ in self.monitor.node.get_node_names_and_namespaces()
+                } >= self.nodes:
             self.client.call_async(Trigger.Request())
             self.asked = True
 
@@ -110,7 +107,7 @@ def run(
     executor = SingleThreadedExecutor(context=monitor.node.context)
     executor.add_node(monitor.node)
     sender = GoalSender(monitor, layout)
-    starter = SimStarter(monitor)
+    starter = SimStarter(monitor, set(cell.launches) - {"sim"})
     wall0 = time.monotonic()
     looked = -math.inf
     outcome = "timeout"

@@ -230,9 +230,10 @@ class SimNode(Node):
                 self._render_due()
                 now = time.monotonic()
                 times.add("commands", now - t0)
-                if self._paused:  # the clock held: its ticks and the joint states go on
+                if self._paused:  # the clock held: its ticks and the drivers' states go on
                     self.pub_clock.publish(Clock(clock=ns_to_stamp(self.world.time_ns)))
                     self._publish_state()
+                    self.drivers.publish_robot_state()
                     self._wake.wait(PAUSED_STATE_S)
                     self._wake.clear()
                     continue
