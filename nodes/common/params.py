@@ -117,9 +117,7 @@ def declare_config(node: Any, cls: type[C], prefix: str = "") -> C:
     """
 
     values: dict[str, Any] = {}
-    for f, meta in _param_fields(cls):
-        name = parameter_name(f, meta, prefix)
-        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+    for f, meta, name, default in _named_fields(cls, prefix):
         description = meta.description + (f" [{meta.unit}]" if meta.unit else "")
         descriptor = ParameterDescriptor(
             description=description, read_only=meta.read_only, dynamic_typing=True
@@ -138,12 +136,15 @@ def current_config(node: Any, cls: type[C], prefix: str = "") -> C:
         ValueError: a value of the wrong type or one the config's own checks refuse; the
             message names the parameter.
     """
-    values: dict[str, Any] = {}
+    return cls(**{f.name: _coerce(name, node.get_parameter(name).value, default)
+                  for f, _, name, default in _named_fields(cls, prefix)})
+
+
+def _named_fields(cls: type, prefix: str):
+    """(field, its param metadata, parameter name, default) of each of ``cls``'s fields."""
     for f, meta in _param_fields(cls):
-        name = parameter_name(f, meta, prefix)
         default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
-        values[f.name] = _coerce(name, node.get_parameter(name).value, default)
-    return cls(**values)
+        yield f, meta, parameter_name(f, meta, prefix), default
 
 
 def describe_config(cls: type, prefix: str = "") -> list[dict[str, str]]:
