@@ -17,7 +17,7 @@ plays ``servoj`` commands, which is what the cell's executor expects of its arm:
   acceleration than the UR10e has, playback slows down: the tool stays on its path and
   arrives late. Where playback fell behind the clock (setpoints that came later than the
   servo delay, a loaded machine; the joints' limits; a commander that paused), it catches up
-  at up to ``CATCH_UP`` times the stream's pace, within the same limits. Before, a lag once
+  at up to ``CATCH_UP`` times the stream's pace (ramped), within the same limits. Before, a lag once
   taken was kept: in the cell it grew to 0.5-0.8 s within a run, and every move that waits
   for the measured tool waited that long.
 * The teach pendant's speed slider (``set_speed_scaling``, a fraction) stretches time the way
@@ -56,8 +56,11 @@ class SetpointResult:
 #: Setpoints further apart than this (s) do not belong to one stream.
 STREAM_GAP_S = 0.25
 #: Playback that fell behind the clock runs up to this many times the stream's pace until it
-#: is a servo delay behind the stamps again (joint limits still apply).
-CATCH_UP = 1.5
+#: is a servo delay behind the stamps again (joint limits still apply) ...
+CATCH_UP = 1.25
+#: ... its pace changing by at most this fraction a control step, so the tool's speed ramps
+#: (a step to 1.5x put the simulated TCP 1.8 mm off a straight path for a moment).
+CATCH_UP_RAMP = 0.01
 
 
 class ArmController:
@@ -82,6 +85,7 @@ class ArmController:
         self.stream: collections.deque[tuple[float, np.ndarray]] = collections.deque()
         self.playback: float | None = None  # stream time being played; None: point to point
         self._slider_lag = 0.0  # stream time the speed slider has held playback back (s)
+        self._catch = 1.0  # the playback's pace, as a multiple of the stream's
         self._stream_start = -math.inf
         self.accepted = 0
         self.rejected = 0
@@ -151,6 +155,7 @@ class ArmController:
             self.stream.clear()
             self.playback = None
             self._slider_lag = 0.0
+            self._catch = 1.0
             self.q_target = q
             self._stream_start = t
         self.stream.append((t, q))
@@ -221,8 +226,9 @@ class ArmController:
         self._slider_lag += dt - pace
         due = self.now - self.servo_delay_s - self._slider_lag
         behind = due - self.playback
-        if behind > pace:
-            pace = min(pace * CATCH_UP, behind)
+        wanted = CATCH_UP if behind > pace else 1.0
+        self._catch += max(-CATCH_UP_RAMP, min(CATCH_UP_RAMP, wanted - self._catch))
+        pace = min(pace * self._catch, max(behind, pace))
         goal = min(due, self.stream[-1][0])
         advance = max(0.0, min(pace, goal - self.playback))
         if advance <= 0.0:
