@@ -17,9 +17,10 @@ plays ``servoj`` commands, which is what the cell's executor expects of its arm:
   acceleration than the UR10e has, playback slows down: the tool stays on its path and
   arrives late. Where playback fell behind the clock (setpoints that came later than the
   servo delay, a loaded machine; the joints' limits; a commander that paused), it catches up
-  at up to ``CATCH_UP`` times the stream's pace (ramped), within the same limits. Before, a lag once
-  taken was kept: in the cell it grew to 0.5-0.8 s within a run, and every move that waits
-  for the measured tool waited that long.
+  at up to ``CATCH_UP`` times the stream's pace (ramped up and down, no jump in speed),
+  within the same limits, and no closer than ``CATCH_UP_MARGIN_S`` to the newest setpoint.
+  Before, a lag once taken was kept: in the cell it grew to 0.5-0.8 s within a run, and
+  every move that waits for the measured tool waited that long.
 * The teach pendant's speed slider (``set_speed_scaling``, a fraction) stretches time the way
   ur_robot_driver's scaled trajectory controller does: the same path, every speed times the
   fraction, every acceleration times its square; at 0 the arm stands still on its path. The
@@ -58,9 +59,13 @@ STREAM_GAP_S = 0.25
 #: Playback that fell behind the clock runs up to this many times the stream's pace until it
 #: is a servo delay behind the stamps again (joint limits still apply) ...
 CATCH_UP = 1.25
-#: ... its pace changing by at most this fraction a control step, so the tool's speed ramps
-#: (a step to 1.5x put the simulated TCP 1.8 mm off a straight path for a moment).
+#: ... its pace changing by at most this fraction a control step, up and back down, so the
+#: tool's speed ramps (a step to 1.5x, or from 1.25x back to 1x, put the simulated TCP 1-2 mm
+#: off a straight path for a moment).
 CATCH_UP_RAMP = 0.01
+#: ... and it catches up no closer than this (s) to the newest setpoint: a commander whose
+#: setpoints come later than the servo delay is followed at a steady lag, not in stop and go.
+CATCH_UP_MARGIN_S = 0.05
 
 
 class ArmController:
@@ -226,8 +231,11 @@ class ArmController:
         self._slider_lag += dt - pace
         due = self.now - self.servo_delay_s - self._slider_lag
         behind = due - self.playback
-        wanted = CATCH_UP if behind > pace else 1.0
-        self._catch += max(-CATCH_UP_RAMP, min(CATCH_UP_RAMP, wanted - self._catch))
+        # the lag to catch up on: up to what is due, but never closer to the newest setpoint
+        # than CATCH_UP_MARGIN_S (chasing the servo delay of a commander that sends late would
+        # run the playback dry at every setpoint: stop and go, the tool off its path)
+        catchable = min(due, self.stream[-1][0] - CATCH_UP_MARGIN_S) - self.playback
+        self._catch += self._catch_step(catchable, pace)
         pace = min(pace * self._catch, max(behind, pace))
         goal = min(due, self.stream[-1][0])
         advance = max(0.0, min(pace, goal - self.playback))
@@ -253,6 +261,16 @@ class ArmController:
         self.q_cmd = q
         while len(self.stream) > 2 and self.stream[2][0] <= self.playback:
             self.stream.popleft()  # (one setpoint before the current one stays, for tangents)
+
+    def _catch_step(self, lag_s: float, pace: float) -> float:
+        """The change of the catch-up factor this step, at most ``CATCH_UP_RAMP`` either way:
+        towards the largest factor from which ramping back down to 1 still lands on the
+        stream's pace as the lag closes (so the speed never jumps), capped at ``CATCH_UP``."""
+        lag_steps = max(0.0, lag_s / pace - 1.0) if pace > 0.0 else 0.0  # (on pace: 1 step)
+        # ramping down from an excess of n ramps closes r * n (n + 1) / 2 steps of lag
+        ramps = math.floor((math.sqrt(1.0 + 8.0 * lag_steps / CATCH_UP_RAMP) - 1.0) / 2.0 + 1e-9)
+        wanted = 1.0 + min(CATCH_UP - 1.0, ramps * CATCH_UP_RAMP)
+        return max(-CATCH_UP_RAMP, min(CATCH_UP_RAMP, wanted - self._catch))
 
     def _settle(self, dt: float) -> None:
         """Played up to the newest setpoint: stop on it."""

@@ -232,10 +232,11 @@ def test_densepack_sim_runs_and_echo_shows_camera_info_across_processes():
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     listener = spawn_python("""
         import time, rclpy
-        from rclpy.qos import qos_profile_sensor_data
         from sensor_msgs.msg import Image
+        from nodes.common.qos import CAMERA
         rclpy.init(); node = rclpy.create_node("image_listener"); got = []
-        node.create_subscription(Image, "/camera/image_raw", got.append, qos_profile_sensor_data)
+        # (reliable, as the detector: best effort loses a 3.7 MB frame to one dropped fragment)
+        node.create_subscription(Image, "/camera/image_raw", got.append, CAMERA)
         end = time.time() + 40
         while not got and time.time() < end:
             rclpy.spin_once(node, timeout_sec=0.1)
@@ -251,7 +252,7 @@ def test_densepack_sim_runs_and_echo_shows_camera_info_across_processes():
         listener.kill()
     assert out.returncode == 0, out.stderr + log
     assert "camera_optical_frame" in out.stdout and "rational_polynomial" in out.stdout
-    assert "IMAGE 1280 960 3686400" in listened, listened
+    assert "IMAGE 1280 960 3686400" in listened, listened + log
     assert sim.returncode == 0, log
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nodes.arm.controller import ArmController
+from nodes.arm.controller import CATCH_UP_RAMP, ArmController
 from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.executor.motion import Limits, LinearMove, ToolPose
 from nodes.robot import ur10e
@@ -169,7 +169,7 @@ def test_playback_that_fell_behind_late_setpoints_catches_up_to_a_servo_delay_be
     run(ctrl, 3.0)
     ctrl.now = 10.0
     move = LinearMove.plan(ToolPose(*start, 0.0), ToolPose(*end, 0.0), Limits(0.25, 4.0))
-    t, sent, qs, times = 10.0, 0, [], []
+    t, sent, qs, times, played = 10.0, 0, [], [], []
     late_from, late_until = 10.3, 10.6  # nothing arrives in between, then all of it at once
     while t < 10.0 + move.duration + 1.0:
         stamp = 10.0 + sent * 0.02
@@ -181,7 +181,15 @@ def test_playback_that_fell_behind_late_setpoints_catches_up_to_a_servo_delay_be
         t += DT
         qs.append(ctrl.step(DT, t)[0])
         times.append(t)
+        played.append(ctrl.playback)
     qs = np.array(qs)
+    # once moving at the stream's pace again (the joints' limits set the start from rest), the
+    # pace ramps up and back down to the stream's, never a jump in speed
+    moving = [p for p, tt in zip(played, times, strict=True)
+              if late_until + DT < tt < 10.0 + move.duration]
+    pace = np.diff(moving)
+    pace = pace[int(np.argmax(pace >= DT - 1e-12)) + 1:]
+    assert pace.max() > 1.2 * DT and np.all(np.abs(np.diff(pace)) <= CATCH_UP_RAMP * DT + 1e-9)
     steps = np.abs(np.diff(qs, axis=0))
     assert np.all(steps <= np.asarray(ur10e.JOINT_VELOCITY_LIMIT) * DT * (1 + 1e-3))
     assert off_line(qs, start, end) < 5e-4
