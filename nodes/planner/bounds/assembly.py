@@ -16,7 +16,7 @@ rest feasible, else a push-only one, sweeping the layout from -y to +y so that l
 
 from __future__ import annotations
 
-from functools import cache
+from functools import cache, cached_property
 
 import numpy as np
 
@@ -105,6 +105,21 @@ class Assembly:
     def enterable(self, c: int, filled: int) -> bool:
         """Slot c can be set down on or pushed into with the slots ``filled``."""
         return any(m & filled == 0 for m in self._enter[c])
+
+    @cached_property
+    def slot_tables(self) -> tuple[list[list[bool]], list[list[bool]]]:
+        """Per slot c, indexed by every filled set (bit mask): whether c is pick-and-place-able
+        (some ``set_down`` mask misses it) and whether the shortest push's fingertips find a
+        free lane (some ``push_tail`` mask misses it). Built once, in bulk, so that the
+        relaxation's shortest path over subsets (``bound.Relaxation``) reads tables."""
+        subsets = np.arange(1 << len(self.ids), dtype=np.int64)
+
+        def table(masks: list[int]) -> list[bool]:
+            free = np.zeros(len(subsets), dtype=bool)
+            for m in masks:
+                free |= (subsets & m) == 0
+            return free.tolist()
+        return ([table(m) for m in self.set_down], [table(m) for m in self.push_tail])
 
     def mask(self, blocks) -> int:
         out = 0

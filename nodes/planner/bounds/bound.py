@@ -110,15 +110,32 @@ class Relaxation:
 
     @cached_property
     def to_go(self) -> list[float]:
-        """Least cost from each filled set (bit mask) to the full layout."""
-        full = (1 << self.n) - 1
+        """Least cost from each filled set (bit mask) to the full layout: ``cost`` summed
+        along the best completion, read from the assembly's per-slot tables (the same values
+        as ``cost``, without its per-call tests: the exact search solves this per state)."""
+        n = self.n
+        full = (1 << n) - 1
+        place, tail = self.asm.slot_tables
         g = [INF] * (full + 1)
         g[full] = 0.0
         for filled in range(full - 1, -1, -1):
             best = INF
-            for c in range(self.n):
-                if not filled >> c & 1:
-                    best = min(best, self.cost(c, filled) + g[filled | 1 << c])
+            for c in range(n):
+                bit = 1 << c
+                if filled & bit:
+                    continue
+                rest = g[filled | bit]
+                placeable = place[c][filled]
+                if rest == INF or not (placeable or tail[c][filled]):
+                    continue
+                if not self.todo & bit:
+                    step = self.moved_cost
+                elif (not placeable and not self.exempt[c]) or self.clears[c] & filled:
+                    step = 2.0
+                else:
+                    step = 1.0
+                if step + rest < best:
+                    best = step + rest
             g[filled] = best
         return g
 
