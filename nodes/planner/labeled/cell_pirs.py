@@ -36,6 +36,7 @@ from nodes.planner.geometry.obstacles import Obstacles, mask_to_int
 from nodes.planner.geometry.transfer import grasp_checks, push_checks
 from nodes.planner.labeled.pirs import NoRoute, Route
 from nodes.planner.labeled.roadmap import plan_route, uniform_draw
+from nodes.planner.labeled.snug import snug_poses
 
 #: Candidate clearing poses drawn per batch, and batches per relaxation level.
 CLEAR_BATCH = 48
@@ -247,25 +248,39 @@ class CellPirs:
                               ).fingers_ok[0]
         if not usable.any():
             usable[:] = True
+        snug: list[np.ndarray] = []  # computed at the first level the draws leave empty
         for forbid in levels:
             found: list[np.ndarray] = []
             for _ in range(CLEAR_ROUNDS):
-                cand = draw(self.rng, CLEAR_BATCH)
-                foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
-                grasps = grasp_checks(ctx, others, cand)
-                ok = grasps.block_ok & (grasps.fingers_ok & usable).any(-1)
-                if forbid is not None:
-                    ok &= ~forbid.query(foot[:, None])[0]
-                found.append(cand[ok])
+                found.append(self._fit(draw(self.rng, CLEAR_BATCH), others, usable, forbid))
                 if sum(len(f) for f in found) >= count and not cfg.distance_cost:
                     break
             good = np.concatenate(found)
+            if not len(good):  # crowded: try the room beside the blocks and the edges
+                if not snug:
+                    yaws = (0.0, next(iter(self.goals.values())).theta) if self.goals else (0.0,)
+                    snug.append(snug_poses(ctx, state, o, yaws))
+                good = self._fit(snug[0], others, usable, forbid)
             if len(good):
                 if cfg.distance_cost:
                     d = np.hypot(good[:, 0] - here.x, good[:, 1] - here.y)
                     good = good[np.argsort(d, kind="stable")]
                 return [Pose2D(*row) for row in good[:count]]
         return []
+
+    def _fit(self, cand: np.ndarray, others: Obstacles, usable: np.ndarray,
+             forbid: Obstacles | None) -> np.ndarray:
+        """The poses of ``cand`` where the block fits and one of the ``usable`` grasps can set
+        it down, outside ``forbid``."""
+        if not len(cand):
+            return cand
+        ctx = self.ctx
+        foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
+        grasps = grasp_checks(ctx, others, cand)
+        ok = grasps.block_ok & (grasps.fingers_ok & usable).any(-1)
+        if forbid is not None:
+            ok &= ~forbid.query(foot[:, None])[0]
+        return cand[ok]
 
 
 def _footprints(ctx: PlanContext, poses: list[Pose2D]) -> np.ndarray:
