@@ -51,3 +51,22 @@ def test_a_crowded_start_still_gets_clearing_poses():
     arr = np.array([[p.x, p.y, p.theta] for p in poses])
     checks = grasp_checks(ctx, others, arr)
     assert checks.block_ok.all() and checks.fingers_ok.any(-1).all()
+
+
+def test_clearing_poses_keep_off_the_last_free_grasp_of_a_block_still_to_move():
+    # blocks 1, 2, 3 in a row 5 mm apart along x: each has only its y grasp free
+    gap = 0.005
+    blocks = (BlockPose(0, 0.55, -0.15, 0.0), BlockPose(1, 0.70, 0.0, 0.0),
+              BlockPose(2, 0.70 + S + gap, 0.0, 0.0), BlockPose(3, 0.70 - S - gap, 0.0, 0.0))
+    scene = Scene(Workspace(0.45, 0.95, -0.25, 0.25), S, blocks,
+                  Goal(slots=(GoalSlot(0.85, -0.18, 0.0, 0),)))
+    ctx = PlanContext.for_scene(scene, PlannerConfig())
+    state = {b.id: b.pose for b in blocks}
+    space = CellPirs(ctx, scene.goal_assignment(), False, np.random.default_rng(0))
+    others = ctx.obstacles(state, exclude=(0,), movable=())
+    spare = space.last_grasps(0, state, frozenset(), others)
+    assert spare is not None and len(spare.corners) == 3 * 2  # two fingers each
+    poses = space.clear_poses(0, state, frozenset(), np.zeros((0, 4, 2)), 8)
+    arr = np.array([[p.x, p.y, p.theta] for p in poses])
+    feet = block_corners(arr[:, 0], arr[:, 1], arr[:, 2], S)
+    assert not spare.query(feet[:, None])[0].any()
