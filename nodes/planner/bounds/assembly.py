@@ -107,19 +107,24 @@ class Assembly:
         return any(m & filled == 0 for m in self._enter[c])
 
     @cached_property
-    def slot_tables(self) -> tuple[list[list[bool]], list[list[bool]]]:
-        """Per slot c, indexed by every filled set (bit mask): whether c is pick-and-place-able
-        (some ``set_down`` mask misses it) and whether the shortest push's fingertips find a
-        free lane (some ``push_tail`` mask misses it). Built once, in bulk, so that the
-        relaxation's shortest path over subsets (``bound.Relaxation``) reads tables."""
-        subsets = np.arange(1 << len(self.ids), dtype=np.int64)
+    def slot_tables(self) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+        """Per slot c and every filled set S (bit mask): whether c is pick-and-place-able
+        (some ``set_down`` mask misses S) and whether the shortest push's fingertips find a
+        free lane (some ``push_tail`` mask misses S), as (n, 2^n) arrays; and the filled sets
+        by how many slots they hold. Built once, in bulk, so that the relaxation's shortest
+        path over subsets (``bound.Relaxation.to_go``) is a few array operations per level."""
+        n = len(self.ids)
+        subsets = np.arange(1 << n, dtype=np.int64)
 
-        def table(masks: list[int]) -> list[bool]:
+        def table(masks: list[int]) -> np.ndarray:
             free = np.zeros(len(subsets), dtype=bool)
             for m in masks:
                 free |= (subsets & m) == 0
-            return free.tolist()
-        return ([table(m) for m in self.set_down], [table(m) for m in self.push_tail])
+            return free
+        place = np.array([table(m) for m in self.set_down]).reshape(n, -1)
+        tail = np.array([table(m) for m in self.push_tail]).reshape(n, -1)
+        counts = np.bitwise_count(subsets)
+        return place, tail, [subsets[counts == k] for k in range(n + 1)]
 
     def mask(self, blocks) -> int:
         out = 0
