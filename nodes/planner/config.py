@@ -26,7 +26,10 @@ MAX_BUDGET_S = 3600.0
 MAX_SAMPLES = 2000
 #: The time parameters bounded by ``MAX_BUDGET_S``.
 SECONDS = ("budget_s", "frozen_budget_s", "improve_min_s", "improve_max_s",
-           "near_goal_budget_s")
+           "near_goal_budget_s", "exact_budget_s", "exact_pirs_s")
+#: Most blocks ``exact_max_blocks`` may name: the exact search's states grow with the pose
+#: set to the power of the block count (9 blocks do not close within minutes).
+MAX_EXACT_BLOCKS = 8
 
 
 @dataclass(frozen=True)
@@ -127,6 +130,17 @@ class PlannerConfig:
     improve_max_s: float = param(
         2.5, "most time given to the anytime improvement (the executor replans in its loop, "
         "so planning time counts); 0 switches it off", unit="s")
+    exact_max_blocks: int = param(
+        6, "scenes with at most this many blocks are first solved by the exact search over a "
+        "fixed pose set (nodes/planner/bounds/exact.py: the fewest actions over that set; "
+        "cramped small scenes, where pIRS finds no clearing pose, close in about a second); "
+        "pIRS then tries to beat its plan; 0 switches it off")
+    exact_budget_s: float = param(
+        10.0, "most time given to the exact search; if it does not close, pIRS plans alone "
+        "with what is left of budget_s", unit="s")
+    exact_pirs_s: float = param(
+        5.0, "with the exact search's plan in hand (above the lower bound), the time pIRS and "
+        "its restarts get to find a shorter one (off the pose set)", unit="s")
     goal_tolerance_xy: float = param(
         cell.PLACED_TOLERANCE_XY,
         "a block this close to its goal counts as placed (no action)", unit="m")
@@ -157,7 +171,8 @@ class PlannerConfig:
                 raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
         for name in ("approach_clearance", "finger_clearance", "push_contact_depth",
                      "table_margin", "a3", "a_dist", "a_push_len", "goal_tolerance_xy",
-                     "goal_tolerance_yaw", "improve_factor", "improve_min_s", "improve_max_s"):
+                     "goal_tolerance_yaw", "improve_factor", "improve_min_s", "improve_max_s",
+                     "exact_budget_s", "exact_pirs_s"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"parameter '{name}' must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.eps <= 1.0 or not 0.0 <= self.eps_start <= 1.0 - self.eps:
@@ -169,6 +184,9 @@ class PlannerConfig:
             if getattr(self, name) > MAX_BUDGET_S:
                 raise ValueError(f"parameter '{name}' must be at most {MAX_BUDGET_S:g} s, got "
                                  f"{getattr(self, name)}")
+        if not 0 <= self.exact_max_blocks <= MAX_EXACT_BLOCKS:
+            raise ValueError(f"parameter 'exact_max_blocks' must be in [0, {MAX_EXACT_BLOCKS}], "
+                             f"got {self.exact_max_blocks}")
         if self.n_samples > MAX_SAMPLES:
             raise ValueError(f"parameter 'n_samples' must be at most {MAX_SAMPLES}, got "
                              f"{self.n_samples}")

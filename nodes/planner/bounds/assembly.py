@@ -16,7 +16,7 @@ rest feasible, else a push-only one, sweeping the layout from -y to +y so that l
 
 from __future__ import annotations
 
-from functools import cache
+from functools import cache, cached_property
 
 import numpy as np
 
@@ -105,6 +105,26 @@ class Assembly:
     def enterable(self, c: int, filled: int) -> bool:
         """Slot c can be set down on or pushed into with the slots ``filled``."""
         return any(m & filled == 0 for m in self._enter[c])
+
+    @cached_property
+    def slot_tables(self) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+        """Per slot c and every filled set S (bit mask): whether c is pick-and-place-able
+        (some ``set_down`` mask misses S) and whether the shortest push's fingertips find a
+        free lane (some ``push_tail`` mask misses S), as (n, 2^n) arrays; and the filled sets
+        by how many slots they hold. Built once, in bulk, so that the relaxation's shortest
+        path over subsets (``bound.Relaxation.to_go``) is a few array operations per level."""
+        n = len(self.ids)
+        subsets = np.arange(1 << n, dtype=np.int64)
+
+        def table(masks: list[int]) -> np.ndarray:
+            free = np.zeros(len(subsets), dtype=bool)
+            for m in masks:
+                free |= (subsets & m) == 0
+            return free
+        place = np.array([table(m) for m in self.set_down]).reshape(n, -1)
+        tail = np.array([table(m) for m in self.push_tail]).reshape(n, -1)
+        counts = np.bitwise_count(subsets)
+        return place, tail, [subsets[counts == k] for k in range(n + 1)]
 
     def mask(self, blocks) -> int:
         out = 0

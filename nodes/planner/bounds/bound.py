@@ -110,17 +110,26 @@ class Relaxation:
 
     @cached_property
     def to_go(self) -> list[float]:
-        """Least cost from each filled set (bit mask) to the full layout."""
-        full = (1 << self.n) - 1
-        g = [INF] * (full + 1)
-        g[full] = 0.0
-        for filled in range(full - 1, -1, -1):
-            best = INF
-            for c in range(self.n):
-                if not filled >> c & 1:
-                    best = min(best, self.cost(c, filled) + g[filled | 1 << c])
-            g[filled] = best
-        return g
+        """Least cost from each filled set (bit mask) to the full layout: ``cost`` summed
+        along the best completion. Solved level by level (sets holding n-1 slots, then n-2,
+        ...), each level in a few array operations over the assembly's per-slot tables (the
+        same values as ``cost``; the exact search solves this once per distinct input)."""
+        n = self.n
+        place, tail, levels = self.asm.slot_tables
+        g = np.full(1 << n, INF)
+        g[-1] = 0.0
+        bits = (1 << np.arange(n, dtype=np.int64))[:, None]
+        todo = np.array([bool(self.todo >> c & 1) for c in range(n)])[:, None]
+        exempt = np.array(self.exempt, dtype=bool)[:, None]
+        clears = np.array(self.clears, dtype=np.int64)[:, None]
+        for k in range(n - 1, -1, -1):
+            filled = levels[k][None, :]
+            placeable, lane = place[:, levels[k]], tail[:, levels[k]]
+            ok = ((filled & bits) == 0) & (placeable | lane)
+            extra = (~placeable & ~exempt) | ((clears & filled) != 0)
+            step = np.where(todo, 1.0 + extra, self.moved_cost)
+            g[levels[k]] = np.where(ok, step + g[filled | bits], INF).min(axis=0)
+        return g.tolist()
 
     def best_start(self) -> tuple[float, int]:
         """(cost, filled set) of the best start: any subset of the slots filled at the start

@@ -22,7 +22,7 @@ import heapq
 import itertools
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -156,7 +156,10 @@ class _Problem:
             target = np.repeat(slot_arr[k:k + 1], p, axis=0)
             self.on_line[:, k] = push_line(poses.arr, target, QUARTER)[0]
         self.covers = poses.conflict[:, slots]  # (P, n): pose overlaps slot k
+        self.cover_bits = [sum(1 << int(c) for c in np.flatnonzero(row)) for row in self.covers]
+        self.on_any_slot = self.covers.any(-1).tolist()
         self._h: dict[tuple[int, ...], float] = {}
+        self._relaxed: dict[tuple, float] = {}  # relaxation inputs -> its value
 
     def key(self, state: tuple[int, ...]) -> tuple[int, ...]:
         return state if self.labeled else tuple(sorted(state))
@@ -173,22 +176,29 @@ class _Problem:
         return self._h[key]
 
     def _bound(self, state: tuple[int, ...]) -> float:
+        """The relaxation's value for ``state``; states that give the relaxation the same
+        inputs share one solve."""
         n = len(self.slots)
         free_on_slots = 0
         if self.labeled:  # blocks n.. have no goal: each on a slot must leave it
             todo = sum(1 << k for k in range(n) if state[k] != self.slots[k])
-            exempt = [bool(self.on_line[state[k], k]) for k in range(n)]
-            clears = [sum(1 << c for c in np.flatnonzero(self.covers[state[k]]) if c != k)
-                      for k in range(n)]
-            relax = Relaxation(self.asm, todo, exempt, clears, moved_cost=2.0)
-            free_on_slots = sum(bool(self.covers[u].any()) for u in state[n:])
+            exempt = tuple(bool(self.on_line[state[k], k]) for k in range(n))
+            clears = tuple(self.cover_bits[state[k]] & ~(1 << k) for k in range(n))
+            free_on_slots = sum(self.on_any_slot[u] for u in state[n:])
         else:
             filled = set(state)
             todo = sum(1 << k for k in range(n) if self.slots[k] not in filled)
             off = [u for u in state if u not in self.slots]
-            exempt = [bool(self.on_line[off, k].any()) for k in range(n)]
-            relax = Relaxation(self.asm, todo, exempt, [0] * n, moved_cost=1.0)
-        return (relax.best_start()[0] if todo else 0.0) + free_on_slots
+            exempt = tuple(bool(self.on_line[off, k].any()) for k in range(n))
+            clears = (0,) * n
+        if not todo:
+            return float(free_on_slots)
+        inputs = (todo, exempt, clears)
+        if inputs not in self._relaxed:
+            relax = Relaxation(self.asm, todo, list(exempt), list(clears),
+                               moved_cost=2.0 if self.labeled else 1.0)
+            self._relaxed[inputs] = relax.best_start()[0]
+        return self._relaxed[inputs] + free_on_slots
 
     def successors(self, state: tuple[int, ...]):
         p = len(self.ps.poses)
@@ -198,8 +208,8 @@ class _Problem:
             for v, kind in self.ps.moves(u, occupied):
                 yield i, v, kind, (*state[:i], v, *state[i + 1:])
 
-    def solve(self, max_expansions: int, seconds: float | None = None
-              ) -> tuple[list[tuple[int, int, str]], int]:
+    def solve(self, max_expansions: int, seconds: float | None = None,
+              stop: Callable[[], bool] | None = None) -> tuple[list[tuple[int, int, str]], int]:
         deadline = None if seconds is None else time.monotonic() + seconds
         tie = itertools.count()
         h0 = self.heuristic(self.start)
@@ -219,8 +229,11 @@ class _Problem:
             expansions += 1
             if expansions > max_expansions:
                 raise ExactLimit(f"no optimum proven within {max_expansions} expansions")
-            if deadline is not None and expansions % 64 == 0 and time.monotonic() > deadline:
-                raise ExactLimit(f"no optimum proven within {seconds:g} s")
+            if expansions % 64 == 0 and (
+                    (deadline is not None and time.monotonic() > deadline)
+                    or (stop is not None and stop())):
+                raise ExactLimit(f"no optimum proven within {seconds:g} s"
+                                 if seconds is not None else "stopped")
             for i, v, kind, nxt in self.successors(state):
                 k = self.key(nxt)
                 if best.get(k, INF) <= g + 1:
@@ -320,19 +333,20 @@ def pose_problem(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
 
 def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
                assignment: Mapping[int, int] | None, max_expansions: int = 20000,
-               max_blocks: int = MAX_BLOCKS, seconds: float | None = None) -> ExactResult:
+               max_blocks: int = MAX_BLOCKS, seconds: float | None = None,
+               stop: Callable[[], bool] | None = None) -> ExactResult:
     """The fewest actions (over ``pose_set``) moving the blocks ``start`` onto the slots;
     ``assignment`` (block id -> slot index) for a labeled goal, None for an unlabeled one.
 
     Raises:
         ValueError: more than ``max_blocks`` blocks.
-        ExactLimit: no optimum proven within ``max_expansions`` or ``seconds`` (or no plan
-            in the set).
+        ExactLimit: no optimum proven within ``max_expansions`` or ``seconds``, or ``stop()``
+            became true (or no plan in the set).
     """
     if len(start) > max_blocks:
         raise ValueError(f"the exact search takes at most {max_blocks} blocks, got "
                          f"{len(start)}")
     pp = pose_problem(ctx, start, goal_slots, assignment)
     problem = _Problem(pp.poses, pp.state, pp.slots, pp.labeled, pp.assembly)
-    moves, expansions = problem.solve(max_expansions, seconds)
+    moves, expansions = problem.solve(max_expansions, seconds, stop)
     return ExactResult(pp.realize(moves), expansions, len(pp.poses.poses))

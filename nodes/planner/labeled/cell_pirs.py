@@ -7,7 +7,7 @@
   2 for pick-and-place + push) minus one for a block standing on another pending slot
   (placing it now saves clearing it), plus what the rest of the layout then costs: the
   certified bound's least relaxed completion where it was solved (up to 12 slots), else the
-  pushes the greedy assembly order still needs (up to 30 slots); ties in that order, or, with
+  pushes the greedy assembly order still needs (up to 64 slots); ties in that order, or, with
   ``jitter`` > 0 (the anytime improvement's restarts), each estimate raised by a random
   amount below ``jitter`` so that near ties go either way. A block
   whose placing would wall in another goal slot (``Assembly.feasible``) is left out. With
@@ -23,12 +23,13 @@
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Collection, Iterable, Iterator
 
 import numpy as np
 
 from msgs_py import Pose2D
-from msgs_py.footprint import block_corners, face_normals
+from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import INF, Relaxation
 from nodes.planner.geometry.context import PlanContext, State, at_pose, nearest_goal_yaw
@@ -36,6 +37,7 @@ from nodes.planner.geometry.obstacles import Obstacles, mask_to_int
 from nodes.planner.geometry.transfer import grasp_checks, push_checks
 from nodes.planner.labeled.pirs import NoRoute, Route
 from nodes.planner.labeled.roadmap import plan_route, uniform_draw
+from nodes.planner.labeled.snug import snug_poses
 
 #: Candidate clearing poses drawn per batch, and batches per relaxation level.
 CLEAR_BATCH = 48
@@ -44,7 +46,7 @@ CLEAR_ROUNDS = 4
 PUSH_START_STEPS = (1.1, 1.5, 2.0)
 #: Largest layout for which the greedy order's future pushes are looked ahead (their cost
 #: grows with the cube of the slot count).
-LOOKAHEAD_MAX = 30
+LOOKAHEAD_MAX = 64
 
 
 class CellPirs:
@@ -247,25 +249,61 @@ class CellPirs:
                               ).fingers_ok[0]
         if not usable.any():
             usable[:] = True
-        for forbid in levels:
+        snug: list[np.ndarray] = []  # computed at the first level the draws leave empty
+        spare = self.last_grasps(o, state, placed, others)
+        for forbid, avoid in itertools.product(levels, (spare, None) if spare else (None,)):
             found: list[np.ndarray] = []
             for _ in range(CLEAR_ROUNDS):
-                cand = draw(self.rng, CLEAR_BATCH)
-                foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
-                grasps = grasp_checks(ctx, others, cand)
-                ok = grasps.block_ok & (grasps.fingers_ok & usable).any(-1)
-                if forbid is not None:
-                    ok &= ~forbid.query(foot[:, None])[0]
-                found.append(cand[ok])
+                found.append(self._fit(draw(self.rng, CLEAR_BATCH), others, usable, forbid,
+                                       avoid))
                 if sum(len(f) for f in found) >= count and not cfg.distance_cost:
                     break
             good = np.concatenate(found)
+            if not len(good):  # crowded: try the room beside the blocks and the edges
+                if not snug:
+                    yaws = (0.0, next(iter(self.goals.values())).theta) if self.goals else (0.0,)
+                    snug.append(snug_poses(ctx, state, o, yaws))
+                good = self._fit(snug[0], others, usable, forbid, avoid)
             if len(good):
                 if cfg.distance_cost:
                     d = np.hypot(good[:, 0] - here.x, good[:, 1] - here.y)
                     good = good[np.argsort(d, kind="stable")]
                 return [Pose2D(*row) for row in good[:count]]
         return []
+
+    def last_grasps(self, o: int, state: State, placed: frozenset[int], others: Obstacles
+                    ) -> Obstacles | None:
+        """The fingers of the one free grasp of each block still to move that has only one
+        (with ``o`` gone): a clearing pose on them would hem that block in (no grasp left),
+        so clearing poses keep off them while others exist."""
+        cand = [b for b in sorted(state) if b != o and b not in placed]
+        if not cand:
+            return None
+        poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in cand])
+        ok = grasp_checks(self.ctx, others, poses).fingers_ok
+        one = np.flatnonzero(ok.sum(-1) == 1)
+        if not len(one):
+            return None
+        axis = np.argmax(ok[one], axis=-1)
+        fingers = grasp_finger_corners(self.ctx.geom, poses[one, 0], poses[one, 1],
+                                       poses[one, 2], axis).reshape(-1, 4, 2)
+        return Obstacles(np.zeros(len(fingers), dtype=np.int64), fingers,
+                         [False] * len(fingers), {})
+
+    def _fit(self, cand: np.ndarray, others: Obstacles, usable: np.ndarray,
+             forbid: Obstacles | None, avoid: Obstacles | None = None) -> np.ndarray:
+        """The poses of ``cand`` where the block fits and one of the ``usable`` grasps can set
+        it down, outside ``forbid`` and ``avoid``."""
+        if not len(cand):
+            return cand
+        ctx = self.ctx
+        foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
+        grasps = grasp_checks(ctx, others, cand)
+        ok = grasps.block_ok & (grasps.fingers_ok & usable).any(-1)
+        for keep_off in (forbid, avoid):
+            if keep_off is not None:
+                ok &= ~keep_off.query(foot[:, None])[0]
+        return cand[ok]
 
 
 def _footprints(ctx: PlanContext, poses: list[Pose2D]) -> np.ndarray:

@@ -19,6 +19,10 @@ pseudocode, all deliberate:
 * Blocks the goal does not name stay movable obstacles for the whole search.
 * CLEAR tries the space's clearing poses in turn, and after clearing its own way retries the
   *same* pose (the path to it was just cleared) rather than a new one.
+* Re-planning a block after a clear (line 14) keeps the regions its earlier routes swept:
+  later clears stay out of all of them (the route is sampled afresh each time, and a block
+  cleared out of one route's way stood in the next one's; 49 blocks at density 0.3: 4-6
+  actions fewer per scene).
 * Among the first ``probe`` candidates, one whose route hits no movable block goes first.
 * A placement that would take the last free grasp of a movable block (``wedged``) clears
   that block first.
@@ -151,7 +155,9 @@ class Pirs:
             result = self._search(dict(start), self.goals, frozenset())
         except OutOfTime:
             _, block, reason = self.stats.failure
-            why = "stop requested" if self.budget.stopped() else "time budget exhausted"
+            given = self.budget.deadline - self.budget.started
+            why = ("stop requested" if self.budget.stopped()
+                   else f"its time budget ({given:.1f} s) exhausted")
             raise PlanningFailure(block, f"{why} after placing at most {self.stats.placed_max} "
                                   f"of {len(self.goals)} blocks"
                                   + (f"; last failure: {reason}" if reason else "")) from None
@@ -213,9 +219,12 @@ class Pirs:
 
     # --- Algorithm 1 ------------------------------------------------------------------------
     def pirs(self, o: int, remaining: frozenset[int], state: dict[int, Any],
-             placed: frozenset[int], depth: int, known: Route | NoRoute | None = None
-             ) -> _Result | None:
-        """Place ``o`` on its goal, then the ``remaining`` goal blocks; None on failure."""
+             placed: frozenset[int], depth: int, known: Route | NoRoute | None = None,
+             swept: Any = None) -> _Result | None:
+        """Place ``o`` on its goal, then the ``remaining`` goal blocks; None on failure.
+        ``swept``: the regions of the routes earlier tries to place ``o`` (in this chain of
+        clears) swept; blocks cleared now stay out of them too, so the next route, sampled
+        afresh, does not find a block just cleared in its way again."""
         if self._too_deep(o, placed, depth, "clearing its way"):
             return None
         movable = remaining | self.free
@@ -226,11 +235,12 @@ class Pirs:
         if not route.blocked:
             return self._placed(o, route, remaining, state, placed)
         o_b = route.blocked[0]
-        cleared = self.clear(o_b, movable - {o_b}, state, placed, route.region, depth + 1)
+        region = route.region if swept is None else self.space.join(swept, route.region)
+        cleared = self.clear(o_b, movable - {o_b}, state, placed, region, depth + 1)
         if cleared is None:
             self.fail(o, placed, f"block {o_b} stands in its way and could not be cleared")
             return None
-        sub = self.pirs(o, remaining, cleared.state, placed, depth + 1)
+        sub = self.pirs(o, remaining, cleared.state, placed, depth + 1, swept=region)
         if sub is None:
             return None
         return _Result([*cleared.actions, *sub.actions], sub.state)

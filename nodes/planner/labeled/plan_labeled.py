@@ -24,6 +24,7 @@ from msgs_py import MessageError, Plan, Pose2D, Scene
 from msgs_py.actions import Action
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import LowerBound, labeled_bound
+from nodes.planner.bounds.exact import ExactLimit, exact_plan
 from nodes.planner.bounds.frozen import FROZEN_WHY, frozen_off_goal
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
@@ -39,6 +40,8 @@ from nodes.planner.passes.reinsert import reinsert
 from nodes.planner.passes.shortcut import shortcut
 
 PLANNER_NAME = "pirs"
+#: The plan's planner when the exact search's plan (over its pose set) is kept.
+EXACT_NAME = "pirs_exact"
 
 
 def misplaced(scene: Scene, config: PlannerConfig) -> int:
@@ -88,25 +91,53 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
                                               + config.frozen_budget_s))
         metrics["frozen"] = float(len(frozen))
     attempt = _Attempt(scene, config, ctx, assembly, bound, start)
+    exact = attempt.exact(budget, metrics) if not frozen else None
+    if exact is not None and len(exact) <= bound.value:  # no plan at all is shorter
+        return finish_plan(scene, config, exact, EXACT_NAME, budget, bound.value, metrics,
+                           plan_id, pruned=True)
+    pirs_budget = budget if exact is None else budget.capped(config.exact_pirs_s)
     try:
-        actions = attempt.solve(np.random.default_rng(config.seed), 0.0, budget, metrics)
+        actions = attempt.solve(np.random.default_rng(config.seed), 0.0, pirs_budget, metrics)
     except PlanningFailure as failure:
-        why = str(failure)
-        if frozen:  # the real cause first: the short budget was this scene's own
-            why = (f"blocks {frozen} are off their goal and {FROZEN_WHY}, so the search got "
-                   f"only frozen_budget_s = {config.frozen_budget_s:g} s; it ended with {why}")
-        return failed(budget, bound.value, why, failure.block, metrics)
+        if exact is not None:
+            metrics["pirs_failed"] = 1.0
+            return finish_plan(scene, config, exact, EXACT_NAME, budget, bound.value, metrics,
+                               plan_id, pruned=True)
+        return failed(budget, bound.value, _why(failure, frozen, config), failure.block,
+                      metrics)
+    return _improved(attempt, actions, exact, pirs_budget, budget, metrics, plan_id)
+
+
+def _why(failure: PlanningFailure, frozen: list[int], config: PlannerConfig) -> str:
+    why = str(failure)
+    if frozen:  # the real cause first: the short budget was this scene's own
+        why = (f"blocks {frozen} are off their goal and {FROZEN_WHY}, so the search got "
+               f"only frozen_budget_s = {config.frozen_budget_s:g} s; it ended with {why}")
+    return why
+
+
+def _improved(attempt: _Attempt, actions: list[Action], exact: list[Action] | None,
+              pirs_budget: Budget, budget: Budget, metrics: dict[str, float],
+              plan_id: str | None) -> PlanOutcome:
+    """pIRS's first plan pruned, then its restarts (``improve``) against the shorter of it
+    and the exact search's plan; the best, validated."""
+    scene, config = attempt.scene, attempt.config
     before = len(actions)
     actions = necessary_actions(scene, attempt.params, actions)
     metrics["unneeded_dropped"] = float(before - len(actions))
-    first_s = budget.elapsed()
+    metrics["pirs_actions"] = float(len(actions))
+    first_s = pirs_budget.elapsed()  # what one restart is expected to take
+    use_exact = exact is not None and len(exact) <= len(actions)
+    best = exact if use_exact else actions
     settings = ImproveSettings(config.improve_factor, config.improve_min_s, config.improve_max_s)
-    better = improve(actions, attempt.restart, attempt.valid,
-                     budget.capped(settings.seconds(first_s)), bound.value, first_s)
-    metrics.update(better.metrics(len(actions)))
+    better = improve(best, attempt.restart, attempt.valid,
+                     pirs_budget.capped(settings.seconds(first_s)), attempt.bound.value,
+                     first_s)
+    metrics.update(better.metrics(len(best)))
     metrics["first_solve_s"] = first_s
-    return finish_plan(scene, config, better.best, PLANNER_NAME, budget, bound.value, metrics,
-                       plan_id, pruned=True)
+    name = EXACT_NAME if use_exact and not better.better else PLANNER_NAME
+    return finish_plan(scene, config, better.best, name, budget, attempt.bound.value,
+                       metrics, plan_id, pruned=True)
 
 
 @dataclass
@@ -153,6 +184,31 @@ class _Attempt:
                                set(self.scene.goal_assignment()))
             metrics["reinsert_saved"] = float(before - len(actions))
         return actions
+
+    def exact(self, budget: Budget, metrics: dict[str, float]) -> list[Action] | None:
+        """The exact search's plan (``exact``: fewest actions over its pose set), validated
+        and pruned, for scenes of at most ``exact_max_blocks`` blocks, within
+        ``exact_budget_s``; None where it does not apply or does not close."""
+        cfg, goals = self.config, self.scene.goal_assignment()
+        if (len(self.start) > cfg.exact_max_blocks or self.scene.goal.yaw_exact
+                or not self.bound.misplaced):
+            return None
+        part = budget.capped(cfg.exact_budget_s)
+        ids = sorted(goals)
+        try:
+            found = exact_plan(self.ctx, self.start, [goals[b] for b in ids],
+                               {b: k for k, b in enumerate(ids)}, max_expansions=10**9,
+                               max_blocks=cfg.exact_max_blocks,
+                               seconds=max(part.remaining(), 0.0), stop=part.stopped)
+        except ExactLimit:
+            metrics["exact_closed"] = 0.0
+            metrics["exact_s"] = part.elapsed()
+            return None
+        metrics["exact_closed"] = 1.0
+        metrics["exact_s"] = part.elapsed()
+        metrics["exact_actions"] = float(len(found.actions))
+        actions = necessary_actions(self.scene, self.params, found.actions)
+        return actions if self.valid(actions) else None
 
     def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
         """Restart ``k``: pruned actions, or None if it found no plan."""

@@ -28,6 +28,9 @@ from nodes.planner.labeled.pirs import NoRoute, Route
 
 #: Sampling gives up after this many rounds of rejection.
 SAMPLE_ROUNDS = 8
+#: What the fixed blocks named in a failure are: not only placed ones (the search also holds
+#: the block whose way is being cleared, and the blocks of the clearing chain, in place).
+HELD = "that stay where they are for this move (placed, or held while their way is cleared)"
 
 
 def sample_poses(ctx: PlanContext, obstacles: Obstacles, n: int, rng: np.random.Generator,
@@ -227,11 +230,11 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
         return NoRoute(f"its target pose is out of the arm's reach ({ctx.reach.describe()})")
     if not graph.block_ok[1]:
         ids = obstacles.fixed_ids_hit(target_block[:, None])
-        return NoRoute(f"its target pose overlaps placed block(s) {ids}", tuple(ids))
+        return NoRoute(f"its target pose overlaps block(s) {ids} {HELD}", tuple(ids))
     if not np.isfinite(graph.weight[:, 1:1 + n_ends]).any():
         fingers = grasp_finger_corners(geom, tx, ty, tt, np.arange(2))
         ids = obstacles.fixed_ids_hit(fingers.reshape(1, -1, 4, 2))
-        return NoRoute(f"no grasp or push reaches its target: fingers hit placed block(s) {ids} "
+        return NoRoute(f"no grasp or push reaches its target: fingers hit block(s) {ids} {HELD} "
                        "or leave the table, and no push lane into it is free", tuple(ids))
     if not ctx.reach.contains(nodes[0, :2]):
         return NoRoute(f"it stands out of the arm's reach ({ctx.reach.describe()})")
@@ -239,7 +242,7 @@ def _diagnose(ctx: PlanContext, graph: _Graph, obstacles: Obstacles, nodes: np.n
         sx, sy, st = nodes[0]
         fingers = grasp_finger_corners(geom, sx, sy, st, np.arange(2))
         ids = obstacles.fixed_ids_hit(fingers.reshape(1, -1, 4, 2))
-        return NoRoute(f"it can be neither grasped nor pushed where it stands: fingers hit placed "
-                       f"block(s) {ids} or leave the table", tuple(ids))
+        return NoRoute(f"it can be neither grasped nor pushed where it stands: fingers hit "
+                       f"block(s) {ids} {HELD} or leave the table", tuple(ids))
     return NoRoute("no roadmap path from its pose to the target among "
                    f"{len(nodes) - 1 - n_ends} samples")

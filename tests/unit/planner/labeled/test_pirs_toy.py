@@ -104,3 +104,25 @@ def test_a_stop_request_ends_the_search_as_a_failure():
     with pytest.raises(PlanningFailure, match="stop requested"):
         Pirs(space, frozenset(space.goals), frozenset(),
              Budget.of(10.0, should_stop=lambda: True)).run(start)
+
+
+@dataclass
+class RecordingShelf(Shelf):
+    """The shelf, remembering the region each clear was asked to keep out of."""
+
+    regions: list = None
+
+    def clearing_poses(self, block, state, placed, region):
+        self.regions.append((block, region))
+        return super().clearing_poses(block, state, placed, region)
+
+
+def test_a_second_clear_for_the_same_placement_keeps_out_of_the_first_route_too():
+    space = RecordingShelf({0: 2, 1: 1, 2: 0}, regions=[])
+    start = {0: ("table", 0), 1: ("shelf", 0), 2: ("shelf", 1)}
+    search = Pirs(space, frozenset(space.goals), frozenset(), Budget.of(10.0))
+    actions, end = search.run(start)
+    assert replay(space, start, actions) == end
+    (first, r1), (second, r2) = space.regions[:2]
+    assert (first, second) == (1, 2)  # both stood in front of block 0's goal
+    assert ("shelf", 0) in r1 and r1 <= r2  # the first route's region is kept
