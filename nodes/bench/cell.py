@@ -129,10 +129,10 @@ class FaultInjector:
         self._disturb = node.create_publisher(DisturbanceMsg, "/sim/disturb", RELIABLE)
         self._blackout = node.create_publisher(Float64, "/sim/camera_blackout", RELIABLE)
         self._fault = node.create_publisher(SimFaultMsg, "/sim/fault", RELIABLE)
-        self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
         self._float = Float64
         self.stray_refused: bool | None = None  # misfire: did the gripper refuse and name us?
-        if name == "misfire":  # a callback per gripper status: only where it is needed
+        if name == "misfire":  # only then: a publisher there is named for any refusal
+            self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
             node.create_subscription(GripperStatusMsg, "/gripper/status",
                                      self._on_gripper_status, RELIABLE)
 

@@ -198,6 +198,9 @@ class LeaseKeeper:
         self.token = ""
         self.topic = ""  #: the private command topic while a lease is held
         self.connected = False  #: the device's subscriber is seen there: commands go there
+        #: set when commands switch to the private topic (the caller clears it): the device may
+        #: have refused one sent on the public topic just before, so the last one goes again
+        self.switched = False
         self.log: list[str] = []
         self._granted_at = 0.0
         self._pending: tuple[Ask, float] | None = None
@@ -263,6 +266,7 @@ class LeaseKeeper:
         if not self.holds:
             return
         if subscribers > 0:
+            self.switched = self.switched or not self.connected
             self.connected = True
         elif self.connected:  # the device's subscriber went: it restarted, or ended the lease
             self._drop(f"{self.device} lease lost (nobody listens on {self.topic} any more): "

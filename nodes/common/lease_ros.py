@@ -180,12 +180,21 @@ class LeaseServer:
 
 class LeaseClient:
     """The holder's side on ``node`` for one device: ``update(want)`` each tick takes or gives
-    back the lease; ``publish`` sends on the private topic once connected, else the public."""
+    back the lease; ``publish`` sends on the private topic once connected, else the public.
+
+    The device closes its public topic when it sees the holder's publisher, the holder
+    switches when it sees the device's subscriber: a command sent on the public topic in
+    between is refused. With ``resend_s`` > 0 the last command, when sent that recently, goes
+    again on the private topic at the switch (the gripper's: one command per grip or release,
+    which must not be lost; the arm's setpoints stream at 50 Hz and one missed is
+    interpolated over)."""
 
     def __init__(self, node: Node, device: str, leaf: str, msg_type: type,
-                 retry_s: float = 1.0) -> None:
+                 retry_s: float = 1.0, resend_s: float = 0.0) -> None:
         self.node = node
         self.device = device
+        self.resend_s = resend_s
+        self._last: tuple[Any, float] | None = None  # the last command sent, when (steady s)
         self.public = node.create_publisher(msg_type, f"/{device}/{leaf}", RELIABLE)
         self.client = node.create_client(ControlLease, f"/{device}/lease")
         self.keeper = LeaseKeeper(f"the {device}'s", retry_s)
@@ -202,6 +211,12 @@ class LeaseClient:
             self._sync_publisher()
             token = self.keeper.token
             lines = self.keeper.take_log()
+            if self.keeper.switched:
+                self.keeper.switched = False
+                last = self._last
+                if (last is not None and self._private is not None
+                        and now - last[1] <= self.resend_s):
+                    self._private[1].publish(last[0])
         if ask is not None:
             request = ControlLease.Request(holder=self.node.get_fully_qualified_name(),
                                            release=ask is Ask.GIVE_BACK, token=token)
@@ -211,6 +226,7 @@ class LeaseClient:
     def publish(self, msg: Any) -> None:
         with self._lock:
             private = self._private if self.keeper.connected else None
+            self._last = (msg, time.monotonic())
         (self.public if private is None else private[1]).publish(msg)
 
     def close(self) -> None:

@@ -99,7 +99,7 @@ class ExecutorNode(Node):
         self.lock = threading.Lock()
         # the public command topics, or the private ones of the leases held during a run
         self.arm_control = LeaseClient(self, "arm", "cartesian_setpoint", PoseStamped)
-        self.gripper_control = LeaseClient(self, "gripper", "command", Float64)
+        self.gripper_control = LeaseClient(self, "gripper", "command", Float64, resend_s=1.0)
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)

@@ -117,6 +117,10 @@ def test_the_holder_asks_when_it_wants_control_and_publishes_privately_once_conn
     k.on_answer(True, "t1", "/arm/lease/t1/cartesian_setpoint", "granted", 0.3)
     assert k.holds and not k.connected  # the device's subscriber not seen yet: public
     assert k.step(True, 0.4, True, 1) is None and k.connected
+    assert k.switched  # the caller sends its last command again, privately
+    k.switched = False
+    k.step(True, 0.45, True, 1)
+    assert not k.switched  # once per switch
     assert k.step(False, 5.0, True, 1) is Ask.GIVE_BACK
     assert k.connected  # commands go on privately until the answer
     k.on_answer(False, "", "", "/executor gave the arm back", 5.1)
