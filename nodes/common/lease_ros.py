@@ -61,8 +61,9 @@ class LeaseServer:
         self._group = callback_group
         self._lock = threading.Lock()
         self._private: tuple[str, Any] | None = None  # (token, subscription)
-        node.create_subscription(msg_type, self.public_topic, self._on_public, RELIABLE,
-                                 callback_group=callback_group)
+        public = node.create_subscription(msg_type, self.public_topic, self._on_public,
+                                          RELIABLE, callback_group=callback_group)
+        self.public_topic = public.topic_name  # as remapped: the graph knows it by that name
         node.create_service(ControlLease, f"/{device}/lease", self._on_request,
                             callback_group=callback_group)
         node.create_timer(cfg.check_period_s, self.check_graph, callback_group=callback_group,
