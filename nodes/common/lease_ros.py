@@ -124,7 +124,7 @@ class LeaseServer:
             self._listen(token, topic)
             response.token, response.command_topic = token, topic
             self.node.get_logger().info(f"{answer.message}: commands on {topic} only")
-        elif not request.release and answer.lease is not None:
+        elif not request.release:
             self.node.get_logger().warning(f"lease asked by {holder} {answer.message}")
         else:
             self.node.get_logger().info(answer.message)
