@@ -24,6 +24,9 @@ meets (what happens; when):
   action 2 runs; the executor holds the gripper's lease then, so the gripper node must refuse
   it and name the benchmark's node (``/densepack_run``) on ``/gripper/status``: a success
   needs that too (``stray_refused``).
+- ``knuckle_misfire``: the same close sent straight to the Robotiq driver's position
+  controller, past densepack (nothing can refuse it there); the executor must notice it and
+  restore its own command (its ``faults_misfire``); while action 2 runs.
 - ``remove``: a person takes away a block not yet placed; the run must stop naming it, the
   arm parked with empty fingers, the rest left as it stands (this cell does not finish a
   goal that names a block it no longer has); after action 2.
@@ -57,9 +60,9 @@ from densepack_interfaces.msg import Disturbance as DisturbanceMsg
 from densepack_interfaces.msg import GripperStatus as GripperStatusMsg
 from densepack_interfaces.msg import SimFault as SimFaultMsg
 from rclpy.context import Context
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, Float64MultiArray
 
-from msgs_py import Scene, save_plan, save_scene
+from msgs_py import Scene, drivers, save_plan, save_scene
 from msgs_py.ros import disturbance_to_msg, sim_fault_to_msg
 from msgs_py.sim import Disturbance
 from msgs_py.sim import SimFault as SimFaultRecord
@@ -71,11 +74,12 @@ from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE
 from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
+from nodes.robot import gripper_2f85 as g85
 from nodes.sim.layout import random_sim_scene
 
 FAULTS = ("none", "executor_restart", "planner_restart", "detector_restart", "nudge",
-          "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
-          "camera_noise", "calibration", "chaos")
+          "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knuckle_misfire", "knock",
+          "remove", "add", "camera_noise", "calibration", "chaos")
 #: The nodes the chaos fault may kill (the sim does not respawn: it is the world).
 CHAOS_NODES = ("executor", "planner", "detector", "arm", "gripper")
 #: The calibration fault: the detector's camera 3, -4, 0 mm off and tilted 0.5 deg.
@@ -135,6 +139,9 @@ class FaultInjector:
             self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
             node.create_subscription(GripperStatusMsg, "/gripper/status",
                                      self._on_gripper_status, RELIABLE)
+        if name == "knuckle_misfire":
+            self._knuckle = node.create_publisher(Float64MultiArray,
+                                                  drivers.GRIPPER_COMMAND_TOPIC, RELIABLE)
 
     def _on_gripper_status(self, msg: GripperStatusMsg) -> None:
         if self.stray_refused is False and STRAY_NAME in msg.refused_commanders:
@@ -180,6 +187,10 @@ class FaultInjector:
             self._gripper.publish(self._float(data=0.02))
             self._fired(f"a stray close to 20 mm during action {k}")
             self.stray_refused = False  # until the gripper's status names us
+        elif name == "knuckle_misfire" and running and k >= 2:
+            self._knuckle.publish(Float64MultiArray(data=[g85.gap_to_knuckle(0.02)]))
+            self._fired(f"a stray close to 20 mm straight to {drivers.GRIPPER_COMMAND_TOPIC} "
+                        f"during action {k}")
         elif name == "remove" and observing and k >= 2 and monitor.plans:
             self.removed = monitor.plans[-1].actions[-1].block
             self._sim_fault(SimFaultRecord("remove_block", self.removed),

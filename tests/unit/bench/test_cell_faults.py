@@ -65,7 +65,7 @@ def test_a_block_taken_away_succeeds_only_as_a_failure_that_names_it():
 
 
 def test_all_is_every_kind_the_issue_names():
-    assert {"grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
+    assert {"grasp_miss", "slip", "drop", "misfire", "knuckle_misfire", "knock", "remove", "add",
             "detector_restart", "camera_noise", "calibration"} <= set(FAULTS)
 
 
