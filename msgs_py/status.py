@@ -2,8 +2,9 @@
 
 The planner's and the executor's are flat records: a ``state`` from a fixed vocabulary,
 counters, the last error in words and a ``metrics`` dict of figures (seconds, counts) for
-dashboards and reports. The gripper's is what a 2F-85 driver reports. The codecs to
-``densepack_interfaces`` are in ``msgs_py.ros.status``.
+dashboards and reports. The gripper's is what a 2F-85 driver reports; it and the arm's also
+say who holds the device's lease and which commanders it refused (``nodes.common.lease``).
+The codecs to ``densepack_interfaces`` are in ``msgs_py.ros.status``.
 """
 
 from __future__ import annotations
@@ -115,6 +116,14 @@ class PlannerStatus:
         return self.state == "waiting" and "detection" in self.last_error
 
 
+def check_lease_fields(refused: int, commanders: tuple[str, ...]) -> None:
+    """The lease part of the arm's and the gripper's status (``nodes.common.lease``)."""
+    if isinstance(refused, bool) or not isinstance(refused, int) or refused < 0:
+        raise MessageError("refused_commands", refused, "expected a count (an integer >= 0)")
+    if not isinstance(commanders, tuple) or not all(isinstance(c, str) for c in commanders):
+        raise MessageError("refused_commanders", commanders, "expected a tuple of node names")
+
+
 @dataclass(frozen=True, slots=True)
 class GripperStatus:
     """What the gripper reports at ``stamp_ns``: measured and requested gap between the pads
@@ -124,6 +133,9 @@ class GripperStatus:
     requested_gap: float
     object: str
     stamp_ns: int = 0
+    lease_holder: str = ""  #: the node that holds the fingers ("": /gripper/command does)
+    refused_commands: int = 0  #: /gripper/command messages refused while another held them
+    refused_commanders: tuple[str, ...] = ()  #: the nodes named for them, most recent first
 
     def __post_init__(self) -> None:
         finite_float("gap", self.gap)
@@ -131,6 +143,7 @@ class GripperStatus:
         if self.object not in GRIPPER_OBJECT_STATES:
             raise MessageError("object", self.object,
                                f"expected one of {list(GRIPPER_OBJECT_STATES)}")
+        check_lease_fields(self.refused_commands, self.refused_commanders)
 
     @property
     def holds_object(self) -> bool:
@@ -150,11 +163,15 @@ class ArmStatus:
     stream_time: float | None = None  #: stamp (s) of the stream the arm is commanded at
     rejected_setpoints: int = 0
     stamp_ns: int = 0
+    lease_holder: str = ""  #: the node that holds the arm ("": /arm/cartesian_setpoint does)
+    refused_commands: int = 0  #: setpoints refused on the public topic while another held it
+    refused_commanders: tuple[str, ...] = ()  #: the nodes named for them, most recent first
 
     def __post_init__(self) -> None:
         if self.state not in ARM_STATES:
             raise MessageError("state", self.state, f"expected one of {list(ARM_STATES)}")
         finite_float("speed_scaling", self.speed_scaling)
+        check_lease_fields(self.refused_commands, self.refused_commanders)
 
     @property
     def ready(self) -> bool:

@@ -1,4 +1,5 @@
-"""Codecs of the nodes' status: figures (``Metric[]``), executor, planner, gripper and arm."""
+"""Codecs of the nodes' status: figures (``Metric[]``), executor, planner, gripper and arm (with
+the lease fields the last two share)."""
 
 from __future__ import annotations
 
@@ -106,10 +107,26 @@ def planner_status_from_msg(msg: ifc.PlannerStatus) -> PlannerStatus:
     )
 
 
+def lease_to_msg(status: ArmStatus | GripperStatus) -> dict[str, object]:
+    """The lease fields of the arm's and the gripper's status, checked for the wire."""
+    return dict(
+        lease_holder=text_at("lease_holder", status.lease_holder),
+        refused_commands=int_at("refused_commands", status.refused_commands, 0, UINT32_MAX),
+        refused_commanders=[text_at(f"refused_commanders[{k}]", name)
+                            for k, name in enumerate(status.refused_commanders)])
+
+
+def lease_from_msg(msg: ifc.ArmStatus | ifc.GripperStatus) -> dict[str, object]:
+    return dict(lease_holder=str(msg.lease_holder),
+                refused_commands=int(msg.refused_commands),
+                refused_commanders=tuple(str(name) for name in msg.refused_commanders))
+
+
 def gripper_status_to_msg(status: GripperStatus) -> ifc.GripperStatus:
     msg = ifc.GripperStatus(gap=float_at("gap", status.gap),
                             requested_gap=float_at("requested_gap", status.requested_gap),
-                            object=code_to("object", GRIPPER_OBJECT_CODES, status.object))
+                            object=code_to("object", GRIPPER_OBJECT_CODES, status.object),
+                            **lease_to_msg(status))
     msg.header.stamp = ns_to_stamp(status.stamp_ns, "stamp_ns")
     return msg
 
@@ -117,7 +134,7 @@ def gripper_status_to_msg(status: GripperStatus) -> ifc.GripperStatus:
 def gripper_status_from_msg(msg: ifc.GripperStatus) -> GripperStatus:
     return GripperStatus(float_at("gap", msg.gap), float_at("requested_gap", msg.requested_gap),
                          code_from("object", GRIPPER_OBJECT_CODES, msg.object),
-                         stamp_to_ns(msg.header.stamp))
+                         stamp_to_ns(msg.header.stamp), **lease_from_msg(msg))
 
 
 def arm_status_to_msg(status: ArmStatus) -> ifc.ArmStatus:
@@ -129,7 +146,8 @@ def arm_status_to_msg(status: ArmStatus) -> ifc.ArmStatus:
         safety_mode=int_at("safety_mode", status.safety_mode, 0, 255),
         robot_mode=int_at("robot_mode", status.robot_mode, -128, 127),
         stream_time=math.nan if status.stream_time is None else float(status.stream_time),
-        rejected_setpoints=int_at("rejected_setpoints", status.rejected_setpoints, 0, UINT32_MAX))
+        rejected_setpoints=int_at("rejected_setpoints", status.rejected_setpoints, 0, UINT32_MAX),
+        **lease_to_msg(status))
     msg.header.stamp = ns_to_stamp(status.stamp_ns, "stamp_ns")
     return msg
 
@@ -142,4 +160,4 @@ def arm_status_from_msg(msg: ifc.ArmStatus) -> ArmStatus:
         code_from("state", ARM_STATE_CODES, msg.state), str(msg.reason),
         float_at("speed_scaling", msg.speed_scaling), bool(msg.program_running),
         int(msg.safety_mode), int(msg.robot_mode), None if math.isnan(stream) else stream,
-        int(msg.rejected_setpoints), stamp_to_ns(msg.header.stamp))
+        int(msg.rejected_setpoints), stamp_to_ns(msg.header.stamp), **lease_from_msg(msg))

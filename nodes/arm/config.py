@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from nodes.common.lease import LeaseConfig
 from nodes.common.params import param
 
 COMMAND_INTERFACES = ("trajectory", "forward_position")
@@ -61,4 +62,4 @@ class ArmConfig:
             raise ValueError(f"speed_scale must be in (0, 1], got {self.speed_scale}")
 
 
-ARM_PARAMETERS = (("", ArmConfig),)
+ARM_PARAMETERS = (("", ArmConfig), ("lease.", LeaseConfig))

@@ -8,11 +8,15 @@ joint commands to ur_robot_driver: short JointTrajectory snippets to its
 pose computed from the measured joints (``/arm/tcp_pose``), follows the speed slider, and
 turns the driver's safety mode, robot mode and program state into ``/arm/status``; on
 ``/arm/unlock_protective_stop`` it gets a UR out of a protective stop the way one must
-(``nodes.arm.unlock``). The same node drives the sim, which serves the driver's interfaces.
+(``nodes.arm.unlock``). Like a UR with its one external control client, it takes one
+commander at a time: a node holding ``/arm/lease`` streams on its private topic and the
+public one is refused, its publishers named (``nodes.common.lease_ros``). The same node
+drives the sim, which serves the driver's interfaces.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import threading
 from typing import Any
@@ -32,6 +36,8 @@ from msgs_py import ros as msg_codecs
 from msgs_py.ros import ns_to_stamp
 from nodes.arm.config import ARM_PARAMETERS, ArmConfig
 from nodes.arm.core import ArmCore, ArmOutputs
+from nodes.common.lease import LeaseConfig
+from nodes.common.lease_ros import LeaseServer
 from nodes.common.params import declare_config
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
@@ -50,6 +56,7 @@ class ArmNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("arm", **kwargs)
         self.config: ArmConfig = declare_config(self, ArmConfig)
+        lease_config = declare_config(self, LeaseConfig, "lease.")
         self.core = ArmCore(self.config)
         self.lock = threading.Lock()  # the core is touched by callbacks of several threads
         self._status_sent: tuple | None = None
@@ -58,9 +65,9 @@ class ArmNode(Node):
         self._tick_lock = threading.Lock()
         inputs = ReentrantCallbackGroup()
         ticks = MutuallyExclusiveCallbackGroup()
-        # the executor's side
-        self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self.on_setpoint,
-                                 RELIABLE, callback_group=inputs)
+        # the executor's side: /arm/cartesian_setpoint, or the lease holder's private topic
+        self.lease = LeaseServer(self, "arm", "cartesian_setpoint", PoseStamped,
+                                 self.on_setpoint, lease_config, callback_group=inputs)
         self.create_service(Trigger, "/arm/unlock_protective_stop", self.on_unlock,
                             callback_group=inputs)
         self.pub_tcp = self.create_publisher(PoseStamped, "/arm/tcp_pose", RELIABLE)
@@ -157,6 +164,10 @@ class ArmNode(Node):
             with self.lock:
                 out = self.core.tick(now)
                 status = self.core.status(round(now * 1e9))
+            lease = self.lease.status()
+            status = dataclasses.replace(status, lease_holder=lease.holder,
+                                         refused_commands=lease.refused_commands,
+                                         refused_commanders=lease.refused_commanders)
             self._send(out, now)
             self._publish_status(status, now)
 
@@ -200,7 +211,7 @@ class ArmNode(Node):
     def _publish_status(self, status, now: float) -> None:
         """On every change of state or reason, and at status_rate_hz (the stream time)."""
         key = (status.state, status.reason, status.program_running, status.safety_mode,
-               status.speed_scaling)
+               status.speed_scaling, status.lease_holder, status.refused_commanders)
         if key == self._status_sent and now - self._status_at < 1.0 / self.config.status_rate_hz:
             return
         self._status_sent, self._status_at = key, now
@@ -208,14 +219,16 @@ class ArmNode(Node):
 
 
 TOPICS = """
-subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world: the executor's stream);
+subscribes: /arm/cartesian_setpoint (geometry_msgs/PoseStamped, world: the executor's stream;
+  refused while a node holds /arm/lease: then /arm/lease/<token>/cartesian_setpoint only);
   from ur_robot_driver: /joint_states (by name), /speed_scaling_state_broadcaster/speed_scaling
   (percent), /io_and_status_controller/{safety_mode, robot_mode, robot_program_running}
 publishes:  /scaled_joint_trajectory_controller/joint_trajectory (trajectory_msgs/
   JointTrajectory) or /forward_position_controller/commands (std_msgs/Float64MultiArray);
   /arm/tcp_pose (geometry_msgs/PoseStamped, world, from the measured joints); /arm/status
   (densepack_interfaces/ArmStatus, latched)
-services:   /arm/unlock_protective_stop (std_srvs/Trigger: unlock, restart the program, wait)
+services:   /arm/unlock_protective_stop (std_srvs/Trigger: unlock, restart the program, wait),
+  /arm/lease (densepack_interfaces/ControlLease: one commander at a time)
 calls:      /dashboard_client/{close_safety_popup, unlock_protective_stop, stop, play}
 """
 

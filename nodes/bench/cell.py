@@ -20,7 +20,13 @@ meets (what happens; when):
 - ``grasp_miss``: the block is knocked aside as the open fingers hover over it; ``slip``:
   the held block slides in the fingers (slippery pads for 50 ms); ``drop``: the held block
   falls out of the fingers. Armed for the next action after action 1.
-- ``misfire``: another program closes the gripper to 20 mm; while action 2 runs.
+- ``misfire``: another program closes the gripper to 20 mm on ``/gripper/command`` while
+  action 2 runs; the executor holds the gripper's lease then, so the gripper node must refuse
+  it and name the benchmark's node (``/densepack_run``) on ``/gripper/status``: a success
+  needs that too (``stray_refused``).
+- ``knuckle_misfire``: the same close sent straight to the Robotiq driver's position
+  controller, past densepack (nothing can refuse it there); the executor must notice it and
+  restore its own command (its ``faults_misfire``); while action 2 runs.
 - ``remove``: a person takes away a block not yet placed; the run must stop naming it, the
   arm parked with empty fingers, the rest left as it stands (this cell does not finish a
   goal that names a block it no longer has); after action 2.
@@ -51,11 +57,12 @@ from typing import Any
 import numpy as np
 import rclpy
 from densepack_interfaces.msg import Disturbance as DisturbanceMsg
+from densepack_interfaces.msg import GripperStatus as GripperStatusMsg
 from densepack_interfaces.msg import SimFault as SimFaultMsg
 from rclpy.context import Context
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, Float64MultiArray
 
-from msgs_py import Scene, save_plan, save_scene
+from msgs_py import Scene, drivers, save_plan, save_scene
 from msgs_py.ros import disturbance_to_msg, sim_fault_to_msg
 from msgs_py.sim import Disturbance
 from msgs_py.sim import SimFault as SimFaultRecord
@@ -67,16 +74,19 @@ from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.qos import RELIABLE
 from nodes.common.transforms import matrix_to_quaternion, quaternion_to_matrix
+from nodes.robot import gripper_2f85 as g85
 from nodes.sim.layout import random_sim_scene
 
 FAULTS = ("none", "executor_restart", "planner_restart", "detector_restart", "nudge",
-          "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
-          "camera_noise", "calibration", "chaos")
+          "camera_drop", "grasp_miss", "slip", "drop", "misfire", "knuckle_misfire", "knock",
+          "remove", "add", "camera_noise", "calibration", "chaos")
 #: The nodes the chaos fault may kill (the sim does not respawn: it is the world).
 CHAOS_NODES = ("executor", "planner", "detector", "arm", "gripper")
 #: The calibration fault: the detector's camera 3, -4, 0 mm off and tilted 0.5 deg.
 CALIBRATION_SHIFT_M = (0.003, -0.004, 0.0)
 CALIBRATION_TILT_DEG = 0.5
+#: The node the misfire comes from (the run monitor's): the gripper must name it.
+STRAY_NAME = "/densepack_run"
 #: The block a person puts into the cell (a tag id no scene of the benchmark uses).
 ADDED_BLOCK = 40
 SUCCESS_POS_M = 0.003
@@ -123,8 +133,21 @@ class FaultInjector:
         self._disturb = node.create_publisher(DisturbanceMsg, "/sim/disturb", RELIABLE)
         self._blackout = node.create_publisher(Float64, "/sim/camera_blackout", RELIABLE)
         self._fault = node.create_publisher(SimFaultMsg, "/sim/fault", RELIABLE)
-        self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
         self._float = Float64
+        self.stray_refused: bool | None = None  # misfire: did the gripper refuse and name us?
+        if name == "misfire":  # only then: a publisher there is named for any refusal
+            self._gripper = node.create_publisher(Float64, "/gripper/command", RELIABLE)
+            node.create_subscription(GripperStatusMsg, "/gripper/status",
+                                     self._on_gripper_status, RELIABLE)
+        if name == "knuckle_misfire":
+            self._knuckle = node.create_publisher(Float64MultiArray,
+                                                  drivers.GRIPPER_COMMAND_TOPIC, RELIABLE)
+
+    def _on_gripper_status(self, msg: GripperStatusMsg) -> None:
+        if self.stray_refused is False and STRAY_NAME in msg.refused_commanders:
+            self.stray_refused = True
+            self.note += (f"; refused by the gripper node ({msg.lease_holder} held it), "
+                          f"{STRAY_NAME} named")
 
     def __call__(self, monitor: RunMonitor, wall: float) -> None:
         if self._restart_at is not None and wall >= self._restart_at:
@@ -163,6 +186,11 @@ class FaultInjector:
         elif name == "misfire" and running and k >= 2:
             self._gripper.publish(self._float(data=0.02))
             self._fired(f"a stray close to 20 mm during action {k}")
+            self.stray_refused = False  # until the gripper's status names us
+        elif name == "knuckle_misfire" and running and k >= 2:
+            self._knuckle.publish(Float64MultiArray(data=[g85.gap_to_knuckle(0.02)]))
+            self._fired(f"a stray close to 20 mm straight to {drivers.GRIPPER_COMMAND_TOPIC} "
+                        f"during action {k}")
         elif name == "remove" and observing and k >= 2 and monitor.plans:
             self.removed = monitor.plans[-1].actions[-1].block
             self._sim_fault(SimFaultRecord("remove_block", self.removed),
@@ -271,7 +299,8 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
         rclpy.try_shutdown(context=context)
     for k, plan in enumerate(monitor.plans):
         save_plan(plan, workdir / f"plan_{blocks}_{seed}_{fault}_{k}.json")
-    metrics.update(seed=seed, fault=fault, removed=injector.removed)
+    metrics.update(seed=seed, fault=fault, removed=injector.removed,
+                   stray_refused=injector.stray_refused)
     metrics["success"] = is_success(metrics)
     (workdir / f"metrics_{blocks}_{seed}_{fault}.json").write_text(
         json.dumps(metrics, indent=2, default=str))
@@ -280,7 +309,10 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
 
 def is_success(m: dict[str, Any]) -> bool:
     """Done with every block at its goal (3 mm / 2 deg by ground truth), none lost; for a
-    block taken away, the documented outcome: failed, naming that block, none lost."""
+    block taken away, the documented outcome: failed, naming that block, none lost; for a
+    stray gripper command, also refused and named by the gripper node."""
+    if m.get("stray_refused") is False:
+        return False
     if m.get("removed") is not None:
         return (m["outcome"] == "failed" and f"[{m['removed']}]" in (m.get("last_error") or "")
                 and not m["blocks_lost"])

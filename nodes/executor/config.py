@@ -122,6 +122,11 @@ class ExecutorConfig:
         "blocks with the arm out of view (0 = never)", unit="s")
     max_replans: int = param(6, "replans (drift corrections) before the executor gives up")
     replan_timeout_s: float = param(60.0, "wait this long for a new plan", unit="s")
+    take_control: bool = param(
+        True, "hold the arm's and the gripper's leases (/arm/lease, /gripper/lease) while a run "
+        "goes (observing, running, recovering, replanning, stopping): the arm and gripper nodes "
+        "then refuse and name any other commander; without them (or this off) the executor "
+        "commands on the public topics")
 
     def __post_init__(self) -> None:
         if self.rate_hz <= 0:

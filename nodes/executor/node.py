@@ -9,8 +9,10 @@ Subscriptions: ``/plan`` (Plan, latched), ``/blocks/detected`` (BlockPoseArray),
 ``/sim/render_request`` (a frame now, in the sim only: a real camera streams). Services:
 ``/executor/start``, ``/executor/stop`` (Trigger). Action: ``/rearrange`` (Rearrange,
 ``nodes/executor/rearrange.py``). Clients: ``/planner/replan``,
-``/arm/unlock_protective_stop``. Typed messages are ``densepack_interfaces``. All the
-behaviour lives in ``ExecutorCore``; this node only converts and forwards.
+``/arm/unlock_protective_stop``, ``/arm/lease`` and ``/gripper/lease`` (it holds both while a
+run goes and commands on their private topics: ``nodes.common.lease_ros``). Typed messages
+are ``densepack_interfaces``. All the behaviour lives in ``ExecutorCore``; this node only
+converts and forwards.
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ from msgs_py.ros import (
 )
 from msgs_py.ros.image import camera_info_to_intrinsics
 from nodes.common.camera_model import CameraModel, load_camera_pose
+from nodes.common.lease_ros import LeaseClient
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
@@ -56,6 +59,7 @@ from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
 from nodes.executor.rearrange import RearrangeServer
+from nodes.executor.states import CONTROL_STATES
 from nodes.executor.visibility import View
 
 TOPICS = """\
@@ -69,14 +73,17 @@ subscribes: /plan (densepack_interfaces/Plan, latched),
             predict what the arm covers), /detector/calibration (diagnostic_msgs/
             DiagnosticStatus, latched: checked recently, the camera check is skipped)
 publishes:  /arm/cartesian_setpoint (geometry_msgs/PoseStamped),
-            /gripper/command (std_msgs/Float64),
+            /gripper/command (std_msgs/Float64): during a run, on the private topics of the
+            arm's and the gripper's leases instead (/arm/lease/<token>/cartesian_setpoint,
+            /gripper/lease/<token>/command),
             /executor/status (densepack_interfaces/ExecutorStatus, latched),
             /executor/placements (densepack_interfaces/Placement: blocks set down),
             /goal_layout (densepack_interfaces/GoalLayout, latched: a /rearrange goal's layout),
             /sim/render_request (std_msgs/Header: a frame now; only a sim listens)
 action:     /rearrange (densepack_interfaces/action/Rearrange)
 services:   /executor/start, /executor/stop (std_srvs/Trigger)
-calls:      /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger)"""
+calls:      /planner/replan, /arm/unlock_protective_stop (std_srvs/Trigger),
+            /arm/lease, /gripper/lease (densepack_interfaces/ControlLease)"""
 
 
 def tool_pose_from_msg(msg: PoseStamped) -> ToolPose:
@@ -90,8 +97,9 @@ class ExecutorNode(Node):
         self.config = declare_config(self, ExecutorConfig)
         self.core = ExecutorCore(self.config)
         self.lock = threading.Lock()
-        self.setpoint_pub = self.create_publisher(PoseStamped, "/arm/cartesian_setpoint", RELIABLE)
-        self.gripper_pub = self.create_publisher(Float64, "/gripper/command", RELIABLE)
+        # the public command topics, or the private ones of the leases held during a run
+        self.arm_control = LeaseClient(self, "arm", "cartesian_setpoint", PoseStamped)
+        self.gripper_control = LeaseClient(self, "gripper", "command", Float64, resend_s=1.0)
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
@@ -234,12 +242,14 @@ class ExecutorNode(Node):
         with self.lock:
             out = self.core.tick(now.nanoseconds * 1e-9)
             status = self.core.status()
-        for line in out.log:
+        want = self.config.take_control and status.state in CONTROL_STATES
+        for line in [*out.log, *self.arm_control.update(want),
+                     *self.gripper_control.update(want)]:
             self.get_logger().info(line)
         if out.setpoint is not None:
-            self.setpoint_pub.publish(self._setpoint_msg(out.setpoint, now))
+            self.arm_control.publish(self._setpoint_msg(out.setpoint, now))
         if out.gripper is not None:
-            self.gripper_pub.publish(Float64(data=float(out.gripper)))
+            self.gripper_control.publish(Float64(data=float(out.gripper)))
         if out.placement is not None:
             self.placement_pub.publish(placement_to_msg(out.placement))
         if out.trigger_camera:
@@ -298,6 +308,11 @@ class ExecutorNode(Node):
 
     def destroy_node(self) -> None:
         self.rearrange.close()
+        for control in (self.arm_control, self.gripper_control):
+            try:
+                control.close()
+            except Exception as err:  # the context is down: the leases end with the graph
+                self.get_logger().debug(f"lease not given back: {err}")
         super().destroy_node()
 
 

@@ -69,6 +69,11 @@ TRANSITIONS: dict[State, dict[State, str]] = {
 #: States in which the arm is busy with a run: a plan that comes then waits for it to end.
 PLANS_WAIT_IN = (State.RUNNING, State.OBSERVING, State.RECOVERING, State.STOPPING)
 
+#: States of a run: the executor holds the arm's and the gripper's leases in them (one
+#: commander at a time, ``nodes.common.lease``) and gives them back when the run ends.
+CONTROL_STATES = (State.OBSERVING, State.RUNNING, State.RECOVERING, State.REPLANNING,
+                  State.STOPPING)
+
 
 class Purpose(enum.Enum):
     """Why a frame is taken: what the detection is judged against."""

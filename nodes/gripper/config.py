@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from nodes.common.lease import LeaseConfig
 from nodes.common.params import param
 from nodes.gripper.watch import WatchLimits
 
@@ -32,4 +33,4 @@ class GripperConfig:
         return WatchLimits(self.at_position, self.still_speed, self.still_s, self.never_moved_s)
 
 
-GRIPPER_PARAMETERS = (("", GripperConfig),)
+GRIPPER_PARAMETERS = (("", GripperConfig), ("lease.", LeaseConfig))

@@ -6,11 +6,15 @@ for ``robotiq_85_left_knuckle_joint`` on the Robotiq driver's position controlle
 0 open to 0.7929 closed: ``nodes.robot.gripper_2f85``); ``/gripper/status`` (GripperStatus)
 is made from the driver's knuckle joint state and the last command anyone sent on that
 controller (``nodes.gripper.watch``), since the driver publishes no object detection. The same
-node drives the sim's gripper, which speaks the driver's interface.
+node drives the sim's gripper, which speaks the driver's interface. One commander at a time:
+a node holding ``/gripper/lease`` commands on its private topic and ``/gripper/command`` is
+refused, its publishers named (``nodes.common.lease_ros``); a command sent straight to the
+driver's topic cannot be refused here, and shows in the requested gap.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import threading
@@ -24,6 +28,8 @@ from std_msgs.msg import Float64, Float64MultiArray
 from msgs_py import MessageError, drivers
 from msgs_py import ros as msg_codecs
 from nodes.common.joints import values_by_name
+from nodes.common.lease import LeaseConfig
+from nodes.common.lease_ros import LeaseServer
 from nodes.common.params import declare_config
 from nodes.common.qos import RELIABLE
 from nodes.common.runner import NodeSpec, run_node
@@ -37,12 +43,14 @@ class GripperNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("gripper", **kwargs)
         self.config: GripperConfig = declare_config(self, GripperConfig)
+        lease_config = declare_config(self, LeaseConfig, "lease.")
         self.watch = KnuckleWatch(self.config.limits())
         self.lock = threading.Lock()
         self.pub_knuckle = self.create_publisher(Float64MultiArray, drivers.GRIPPER_COMMAND_TOPIC,
                                                  RELIABLE)
         self.pub_status = self.create_publisher(GripperStatus, "/gripper/status", RELIABLE)
-        self.create_subscription(Float64, "/gripper/command", self.on_gap, RELIABLE)
+        # /gripper/command, or the lease holder's private topic
+        self.lease = LeaseServer(self, "gripper", "command", Float64, self.on_gap, lease_config)
         self.create_subscription(Float64MultiArray, drivers.GRIPPER_COMMAND_TOPIC,
                                  self.on_knuckle_command, RELIABLE)
         self.create_subscription(JointState, drivers.GRIPPER_JOINT_STATES, self.on_joint_state,
@@ -83,15 +91,21 @@ class GripperNode(Node):
         if stuck:
             self.get_logger().error(f"{stuck} (reactivate: {drivers.GRIPPER_REACTIVATE})")
         if status is not None:
+            lease = self.lease.status()
+            status = dataclasses.replace(status, lease_holder=lease.holder,
+                                         refused_commands=lease.refused_commands,
+                                         refused_commanders=lease.refused_commanders)
             self.pub_status.publish(msg_codecs.gripper_status_to_msg(status))
 
 
 TOPICS = """
-subscribes: /gripper/command (std_msgs/Float64, pad gap m: the executor's),
+subscribes: /gripper/command (std_msgs/Float64, pad gap m: the executor's; refused while a
+  node holds /gripper/lease: then /gripper/lease/<token>/command only),
   /gripper/joint_states (the Robotiq driver's knuckle joint, by name),
   /gripper/robotiq_position_controller/commands (to see every command, anyone's)
 publishes:  /gripper/robotiq_position_controller/commands (std_msgs/Float64MultiArray,
   knuckle rad), /gripper/status (densepack_interfaces/GripperStatus)
+services:   /gripper/lease (densepack_interfaces/ControlLease: one commander at a time)
 """
 
 SPEC = NodeSpec(

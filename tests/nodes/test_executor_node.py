@@ -36,6 +36,8 @@ from msgs_py import (
 from msgs_py import ros as msg_codecs
 from msgs_py.ros import ns_to_stamp
 from msgs_py.scene import Workspace
+from nodes.common.lease import LeaseConfig
+from nodes.common.lease_ros import LeaseServer
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.executor.node import ExecutorNode, tool_pose_from_msg
 from tests.actions import Goals, wait_future
@@ -52,7 +54,7 @@ class FakeCell(Node):
     block carries it; asked for a frame (the sim's /sim/render_request), the camera takes one
     (camera_info) and the detector publishes the blocks."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, leases: bool = False, **kwargs):
         super().__init__("fake_cell", **kwargs)
         self.blocks = dict(START)
         self.tcp = None
@@ -60,9 +62,15 @@ class FakeCell(Node):
         self.tcp_pub = self.create_publisher(PoseStamped, "/arm/tcp_pose", RELIABLE)
         self.det_pub = self.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
         self.info_pub = self.create_publisher(CameraInfo, "/camera/camera_info", CAMERA)
-        self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self.on_setpoint,
-                                 RELIABLE)
-        self.create_subscription(Float64, "/gripper/command", self.on_gripper, RELIABLE)
+        if leases:  # as the arm and gripper nodes take commands: one commander at a time
+            self.arm_lease = LeaseServer(self, "arm", "cartesian_setpoint", PoseStamped,
+                                         self.on_setpoint, LeaseConfig())
+            self.gripper_lease = LeaseServer(self, "gripper", "command", Float64,
+                                             self.on_gripper, LeaseConfig())
+        else:
+            self.create_subscription(PoseStamped, "/arm/cartesian_setpoint", self.on_setpoint,
+                                     RELIABLE)
+            self.create_subscription(Float64, "/gripper/command", self.on_gripper, RELIABLE)
         self.create_subscription(Header, "/sim/render_request", self.on_render_request, RELIABLE)
         self.create_timer(0.01, self.publish_tcp)
         self.triggers = 0
@@ -167,6 +175,32 @@ def test_executor_runs_a_plan_to_a_verified_goal(ros):
     assert status.metrics["actions_executed"] == 2
     assert cell.blocks[1].distance_to(GOAL[1]) < 0.002
     assert cell.triggers == 3  # before the first action and after each
+
+
+def wait_until(condition, what: str, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"{what} not within {timeout} s"
+        time.sleep(0.01)
+
+
+def test_the_executor_holds_the_arm_and_the_fingers_through_a_run_and_gives_them_back(ros):
+    cell = ros.add(FakeCell(context=ros.context, leases=True))
+    executor = ros.add(ExecutorNode(context=ros.context, parameter_overrides=FAST))
+    stray = ros.publisher("/gripper/command", Float64)
+    ros.publisher("/plan", PlanMsg, LATCHED).publish(msg_codecs.plan_to_msg(plan()))
+    wait_until(lambda: cell.gripper_lease._in_force() is not None, "the gripper's lease")
+    assert cell.arm_lease.status().holder == "/executor"
+    wait_until(lambda: executor.gripper_control.keeper.connected, "the executor switched")
+    stray.publish(Float64(data=0.0))  # another program closes the fingers mid-run
+    wait_until(lambda: cell.gripper_lease.status().refused_commands == 1, "the refusal")
+    assert cell.gripper_lease.status().refused_commanders == ("/harness_probe",)
+    status = wait_status(ros, "done")
+    assert status.metrics["actions_executed"] == 2 and cell.held is None
+    assert cell.blocks[2].distance_to(GOAL[2]) < 0.002
+    wait_until(lambda: cell.arm_lease.status().holder == cell.gripper_lease.status().holder
+               == "", "both given back")
+    assert cell.arm_lease.status().refused_commanders == ()  # nobody else on the arm
 
 
 def rosout(ros) -> list[str]:

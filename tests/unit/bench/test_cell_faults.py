@@ -65,7 +65,7 @@ def test_a_block_taken_away_succeeds_only_as_a_failure_that_names_it():
 
 
 def test_all_is_every_kind_the_issue_names():
-    assert {"grasp_miss", "slip", "drop", "misfire", "knock", "remove", "add",
+    assert {"grasp_miss", "slip", "drop", "misfire", "knuckle_misfire", "knock", "remove", "add",
             "detector_restart", "camera_noise", "calibration"} <= set(FAULTS)
 
 
@@ -89,3 +89,9 @@ def test_the_look_pose_share_counts_the_looks_after_actions():
 
     assert look_pose_share({"on_the_way": 3, "from_waypoint": 5, "from_look_pose": 2}) == 0.2
     assert look_pose_share({}) is None
+
+
+def test_a_stray_gripper_command_succeeds_only_when_the_gripper_refused_and_named_it():
+    assert is_success(_metrics(fault="misfire", stray_refused=True))
+    assert not is_success(_metrics(fault="misfire", stray_refused=False))  # handled late
+    assert is_success(_metrics(stray_refused=None))  # any other kind: not asked

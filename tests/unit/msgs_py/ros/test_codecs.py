@@ -53,7 +53,7 @@ from msgs_py import (
 )
 from msgs_py import ros as msg_codecs
 from msgs_py.sim import ROBOT_PARTS, SIM_EVENT_TYPES, Disturbance, SimEvent, SimEvents
-from msgs_py.status import GRIPPER_OBJECT_STATES, GripperStatus
+from msgs_py.status import ARM_STATES, GRIPPER_OBJECT_STATES, ArmStatus, GripperStatus
 from msgs_py.tasks import (
     PLAN_ERRORS,
     REARRANGE_OUTCOMES,
@@ -374,10 +374,40 @@ def test_sim_events_round_trip_and_keep_the_monitors_form(events, contacts, lost
     assert SimEvents.from_summary(record.to_dict(), stamp) == record
 
 
-@given(st.floats(0, 0.085), st.floats(0, 0.085), st.sampled_from(GRIPPER_OBJECT_STATES), stamps)
-def test_gripper_status_round_trips(gap, requested, state, stamp):
-    roundtrip(GripperStatus(gap, requested, state, stamp), msg_codecs.gripper_status_to_msg,
-              msg_codecs.gripper_status_from_msg)
+node_names = st.lists(st.text(chars, min_size=1, max_size=20), max_size=8, unique=True)
+
+
+@given(st.floats(0, 0.085), st.floats(0, 0.085), st.sampled_from(GRIPPER_OBJECT_STATES), stamps,
+       texts, counts, node_names)
+def test_gripper_status_round_trips(gap, requested, state, stamp, holder, refused, named):
+    roundtrip(GripperStatus(gap, requested, state, stamp, holder, refused, tuple(named)),
+              msg_codecs.gripper_status_to_msg, msg_codecs.gripper_status_from_msg)
+
+
+@given(st.sampled_from(ARM_STATES), texts, st.floats(0, 1), st.booleans(), st.integers(0, 255),
+       st.integers(-128, 127), st.floats(0, 1e5), counts, stamps, texts, counts, node_names)
+def test_arm_status_round_trips_with_its_lease(state, reason, slider, program, safety, mode,
+                                                stream, rejected, stamp, holder, refused, named):
+    roundtrip(ArmStatus(state, reason, slider, program, safety, mode, stream, rejected, stamp,
+                        holder, refused, tuple(named)),
+              msg_codecs.arm_status_to_msg, msg_codecs.arm_status_from_msg)
+    no_stream = wire(msg_codecs.arm_status_to_msg(ArmStatus(state, lease_holder=holder)))
+    assert math.isnan(no_stream.stream_time)  # NaN on the wire: no stream
+    assert msg_codecs.arm_status_from_msg(no_stream) == ArmStatus(state, lease_holder=holder)
+
+
+def test_lease_fields_are_checked_both_ways():
+    with pytest.raises(MessageError, match="refused_commands"):
+        ArmStatus("ready", refused_commands=-1)
+    with pytest.raises(MessageError, match="refused_commanders"):
+        GripperStatus(0.05, 0.0, "moving", refused_commanders=["/tool"])  # a list: mutable
+    with pytest.raises(MessageError) as err:
+        msg_codecs.arm_status_to_msg(ArmStatus("ready", refused_commanders=("/a", "/b\x00")))
+    assert err.value.field == "refused_commanders[1]"
+    with pytest.raises(MessageError) as err:
+        msg_codecs.gripper_status_to_msg(GripperStatus(0.05, 0.0, "moving",
+                                                       refused_commands=2**32))
+    assert err.value.field == "refused_commands"
 
 
 @given(ids, st.floats(-0.1, 0.1), st.floats(-0.1, 0.1))
@@ -414,7 +444,9 @@ def test_dispatch_covers_every_record():
                ExecutorStatus("running"), PlannerStatus("planned"), PlanRequest(scene),
                PlanReply.refused("busy", "planning"), RearrangeFeedback("observing"),
                RearrangeResult("canceled"), BlockError(1, 0.001, 0.01),
-               GripperStatus(0.05, 0.0, "stopped_closing", 7), Disturbance(2, 0.01, -0.01),
+               GripperStatus(0.05, 0.0, "stopped_closing", 7, "/executor", 3, ("/tool",)),
+               ArmStatus("ready", stream_time=2.5, lease_holder="/executor"),
+               Disturbance(2, 0.01, -0.01),
                SimEvent("block_lost", 3.5, 4, reason="tipped over"),
                SimEvents(0, 1, (SimEvent("block_lost", 3.5, 4, reason="tipped over"),), 9)]
     for record in records:
