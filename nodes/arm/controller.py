@@ -232,9 +232,12 @@ class ArmController:
         due = self.now - self.servo_delay_s - self._slider_lag
         behind = due - self.playback
         # the lag to catch up on: up to what is due, but never closer to the newest setpoint
-        # than CATCH_UP_MARGIN_S (chasing the servo delay of a commander that sends late would
-        # run the playback dry at every setpoint: stop and go, the tool off its path)
-        catchable = min(due, self.stream[-1][0] - CATCH_UP_MARGIN_S) - self.playback
+        # than CATCH_UP_MARGIN_S, and none while the stream is starved (its newest setpoint
+        # older than what is due): chasing a commander that sends late runs the playback into
+        # the stream's end faster, stop and go, the tool off its path (a block set down 2 mm
+        # low, a protective stop, in the arm calibration test)
+        newest = self.stream[-1][0]
+        catchable = min(due, newest - CATCH_UP_MARGIN_S) - self.playback if newest >= due else 0.0
         self._catch += self._catch_step(catchable, pace)
         pace = min(pace * self._catch, max(behind, pace))
         goal = min(due, self.stream[-1][0])

@@ -97,6 +97,7 @@ def test_a_stray_setpoint_is_refused_and_its_publisher_named_while_a_node_holds_
 
 
 def test_a_second_holder_is_refused_with_the_holders_name_and_named(ros, cell):
+    ros.add(Node("test_executor", context=ros.context))  # on the graph: its lease lasts
     assert ask(ros, "arm", "/test_executor").granted
     second = ask(ros, "arm", "/other_executor")
     assert not second.granted and second.token == "" and second.command_topic == ""
@@ -108,6 +109,7 @@ def test_a_second_holder_is_refused_with_the_holders_name_and_named(ros, cell):
 
 
 def test_the_same_holder_asking_again_gets_a_new_topic_and_the_old_one_is_dropped(ros, cell):
+    ros.add(Node("test_executor", context=ros.context))  # on the graph: its lease lasts
     first = ask(ros, "arm", "/test_executor")
     wait_until(lambda: ros.probe.count_subscribers(first.command_topic) == 1, "old topic")
     again = ask(ros, "arm", "/test_executor")  # an executor that came back under its name
