@@ -22,10 +22,17 @@ from typing import Any
 
 from densepack_interfaces.srv import ControlLease
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 
 from nodes.common.lease import Ask, Lease, LeaseBook, LeaseConfig, LeaseKeeper, LeaseStatus
 from nodes.common.qos import RELIABLE
+
+#: The private topics' publisher and subscription come and go with leases: without QoS event
+#: handlers, since rclpy Jazzy's multi-threaded executor fails its spin (InvalidHandle) when an
+#: entity with event handlers is destroyed on one thread while another builds its wait set.
+NO_EVENTS_SUB = SubscriptionEventCallbacks(use_default_callbacks=False)
+NO_EVENTS_PUB = PublisherEventCallbacks(use_default_callbacks=False)
 
 
 def qualified(name: str, namespace: str) -> str:
@@ -134,7 +141,7 @@ class LeaseServer:
         """Subscribe on the lease's private topic (unless a newer lease came meanwhile)."""
         subscription = self.node.create_subscription(
             self.msg_type, topic, self._private_callback(token), RELIABLE,
-            callback_group=self._group)
+            callback_group=self._group, event_callbacks=NO_EVENTS_SUB)
         with self._lock:
             current = self.book.lease is not None and self.book.lease.token == token
             if current:
@@ -263,4 +270,5 @@ class LeaseClient:
             self.node.destroy_publisher(self._private[1])
             self._private = None
         if topic and self._private is None:
-            self._private = (topic, self.node.create_publisher(self._msg_type, topic, RELIABLE))
+            self._private = (topic, self.node.create_publisher(
+                self._msg_type, topic, RELIABLE, event_callbacks=NO_EVENTS_PUB))
