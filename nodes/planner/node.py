@@ -59,6 +59,9 @@ def scene_to_plan(layout: Scene, detection: BlockSet) -> tuple[Scene | None, str
     if detection.missing:
         return None, (f"blocks {sorted(detection.missing)} are occluded in the last detection; "
                       "waiting for one that shows every block")
+    if detection.occluded:  # a frame taken with the arm in view: its poses are not all there
+        return None, (f"blocks {sorted(detection.occluded)} are covered by the arm in the last "
+                      "detection; waiting for one that shows every block")
     check_goal(layout)
     seen = set(detection.ids)
     named = sorted(s.id for s in layout.goal.slots if s.id is not None)

@@ -67,6 +67,19 @@ def test_occluded_blocks_make_it_wait(ros):
                          timeout=20, qos=LATCHED)
 
 
+def test_blocks_the_arm_covers_make_it_wait_for_a_frame_that_shows_them(ros):
+    """A frame taken on the way lists the blocks under the arm as occluded, without poses:
+    planning from it would lose them (a 9-slot goal with 7 blocks, refused as a failure and
+    the run given up); the planner waits, and says it wants a detection (the executor looks)."""
+    scene = random_scene(4, 0.1, seed=2)
+    covered = BlockSet(scene.blocks[2:], occluded=(scene.blocks[0].id, scene.blocks[1].id))
+    start(ros, scene, covered)
+    status = msg_codecs.planner_status_from_msg(ros.wait_for_message(
+        "/planner/status", PlannerStatus, status_is("waiting", "covered by the arm"),
+        timeout=20, qos=LATCHED))
+    assert status.wants_detection
+
+
 def test_goal_naming_an_unseen_block_is_a_clear_failure(ros):
     from msgs_py import Goal, GoalSlot, Scene
 
