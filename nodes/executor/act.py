@@ -22,6 +22,7 @@ from nodes.executor.decisions import (
     LookOnTheWay,
     NextAction,
     Observe,
+    Replan,
     Script,
     Stop,
 )
@@ -39,9 +40,9 @@ def next_action(belief: Belief, cfg: ExecutorConfig, report: Report) -> Decision
     plan, action = belief.plan, belief.current
     assert plan is not None and action is not None
     start = belief.expected.get(action.block)
-    if start is None:
-        return Stop(f"action {belief.index + 1} moves block {action.block}, which is not seen",
-                    failed=True)
+    if start is None:  # (let go of after a fault, under the arm in the last frame): plan anew
+        return Replan(f"action {belief.index + 1} moves block {action.block}, which is not "
+                      "seen where the plan has it")
     if belief.checking_camera:
         report.say(f"camera check: block {action.block} gripped in place along both of its axes")
     else:

@@ -242,7 +242,11 @@ class ExecutorNode(Node):
         with self.lock:
             out = self.core.tick(now.nanoseconds * 1e-9)
             status = self.core.status()
-        want = self.config.take_control and status.state in CONTROL_STATES
+        # a run holds the leases; so does any motion outside one (a respawned executor parks
+        # the arm before its goal comes back: the arm still holds the lease of the executor
+        # that died, under the same name, so the public topic stays closed to it)
+        commanding = out.setpoint is not None or out.gripper is not None
+        want = self.config.take_control and (status.state in CONTROL_STATES or commanding)
         for line in [*out.log, *self.arm_control.update(want),
                      *self.gripper_control.update(want)]:
             self.get_logger().info(line)
