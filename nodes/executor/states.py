@@ -23,6 +23,7 @@ TRANSITIONS: dict[State, dict[State, str]] = {
         State.OBSERVING: "a plan and a start, or a block in the fingers with no run going: "
                          "look before acting",
         State.RECOVERING: "the fingers hold a block at start-up: set it down",
+        State.STOPPING: "a motion with no run going (the start-up park) failed: stop safely",
         State.STOPPED: "stop requested",
     },
     State.OBSERVING: {
