@@ -18,6 +18,7 @@ converts and forwards.
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import threading
 from collections.abc import Callable
@@ -99,7 +100,11 @@ class ExecutorNode(Node):
         self.lock = threading.Lock()
         # the public command topics, or the private ones of the leases held during a run
         self.arm_control = LeaseClient(self, "arm", "cartesian_setpoint", PoseStamped)
-        self.gripper_control = LeaseClient(self, "gripper", "command", Float64, resend_s=1.0)
+        # the fingers' command is a state (where they should be): it goes again at every switch
+        # to a new lease, however old (a gripper node that restarted while the executor let go
+        # of a block lost the open sent meanwhile, and the arm parked with the block in hand)
+        self.gripper_control = LeaseClient(self, "gripper", "command", Float64,
+                                           resend_s=math.inf)
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
