@@ -184,6 +184,11 @@ class Ask(enum.Enum):
     GIVE_BACK = "give back"
 
 
+#: How long (s) a device's status may name another holder than the one holding its lease
+#: before the holder takes the lease as lost (``LeaseKeeper.on_device_holder``).
+HOLDER_MISMATCH_S = 0.5
+
+
 class LeaseKeeper:
     """The holder's side for one device: asks while it wants the lease and holds none (again
     each ``retry_s`` while refused or unanswered), gives it back when it no longer wants it,
@@ -206,6 +211,7 @@ class LeaseKeeper:
         self._pending: tuple[Ask, float] | None = None
         self._next_try = -math.inf
         self._refusal = ""
+        self._mismatch_since: float | None = None
 
     @property
     def holds(self) -> bool:
@@ -257,6 +263,23 @@ class LeaseKeeper:
         self._pending = None
         self._next_try = now + self.retry_s
         self.log.append(f"{self.device} lease request failed: {why}")
+
+    def on_device_holder(self, holder: str, me: str, now: float) -> None:
+        """The holder the device's status names. A device that restarted holds no lease and
+        says so at once, while its private topic's subscriber may be seen gone only when DDS
+        notices the dead process (many seconds): a lease held and connected that the device
+        names another holder for ``HOLDER_MISMATCH_S`` (a status from before the grant may
+        still arrive) is lost, and asked for again."""
+        if not (self.holds and self.connected) or holder == me:
+            self._mismatch_since = None
+            return
+        if self._mismatch_since is None:
+            self._mismatch_since = now
+        elif now - self._mismatch_since >= HOLDER_MISMATCH_S:
+            self._drop(f"{self.device} lease lost (the device says {holder or 'nobody'} holds "
+                       "it: it restarted): asking again")
+            self._mismatch_since = None
+            self._next_try = now
 
     def take_log(self) -> list[str]:
         out, self.log = self.log, []

@@ -231,6 +231,12 @@ class LeaseClient:
             self.client.call_async(request).add_done_callback(self._answered)
         return lines
 
+    def on_device_status(self, holder: str) -> None:
+        """The lease holder the device's status names (``LeaseKeeper.on_device_holder``)."""
+        with self._lock:
+            self.keeper.on_device_holder(holder, self.node.get_fully_qualified_name(),
+                                         time.monotonic())
+
     def publish(self, msg: Any) -> None:
         with self._lock:
             private = self._private if self.keeper.connected else None

@@ -177,6 +177,7 @@ class ExecutorNode(Node):
     def on_gripper(self, msg: GripperStatus) -> None:
         status = self._decoded(msg, gripper_status_from_msg, "/gripper/status")
         if status is not None:
+            self.gripper_control.on_device_status(status.lease_holder)
             with self.lock:
                 self.core.on_gripper(status)
 
@@ -184,6 +185,7 @@ class ExecutorNode(Node):
         status = self._decoded(msg, arm_status_from_msg, "/arm/status", (MessageError,
                                                                          ValueError))
         if status is not None:
+            self.arm_control.on_device_status(status.lease_holder)
             with self.lock:
                 self.core.on_arm_status(status)
 

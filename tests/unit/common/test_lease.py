@@ -150,6 +150,25 @@ def test_a_device_that_restarts_is_asked_again():
     assert k.step(True, 4.2, True, 0) is Ask.TAKE  # it is back
 
 
+def test_a_device_that_restarted_and_names_no_holder_is_asked_again_before_dds_notices():
+    """A SIGKILLed gripper node is back within seconds holding no lease, while its old
+    subscriber on the private topic may still be counted: its status says so first."""
+    k = keeper()
+    k.step(True, 0.0, True, 0)
+    k.on_answer(True, "t1", "/gripper/lease/t1/command", "granted", 0.0)
+    k.step(True, 0.1, True, 1)
+    k.on_device_holder("/executor", "/executor", 0.2)
+    k.on_device_holder("", "/executor", 0.3)  # one status from before the grant: no harm
+    k.on_device_holder("/executor", "/executor", 0.4)
+    assert k.holds
+    k.on_device_holder("", "/executor", 5.0)  # restarted
+    k.on_device_holder("", "/executor", 5.3)
+    assert k.holds  # not yet: a status may be late
+    k.on_device_holder("", "/executor", 5.6)
+    assert not k.holds and "says nobody holds it" in k.take_log()[-1]
+    assert k.step(True, 5.6, True, 1) is Ask.TAKE  # (the dead subscriber still counted)
+
+
 def test_a_lease_never_connected_or_never_answered_is_given_up_and_asked_again():
     k = keeper()
     k.step(True, 0.0, True, 0)
