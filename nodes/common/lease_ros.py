@@ -209,6 +209,7 @@ class LeaseClient:
         self._msg_type = msg_type
         self._private: tuple[str, Any] | None = None  # (topic, publisher)
         self._lock = threading.Lock()
+        self.resends = 0  #: how often the last command went again at a switch
 
     def update(self, want: bool) -> list[str]:
         """Take or give back the lease as ``want`` says; returns the lines to log."""
@@ -225,6 +226,7 @@ class LeaseClient:
                 if (last is not None and self._private is not None
                         and now - last[1] <= self.resend_s):
                     self._private[1].publish(last[0])
+                    self.resends += 1
         if ask is not None:
             request = ControlLease.Request(holder=self.node.get_fully_qualified_name(),
                                            release=ask is Ask.GIVE_BACK, token=token)

@@ -134,6 +134,12 @@ class ExecutorCore:
     def on_gripper(self, reading: GripperStatus) -> None:
         self.inbox.on_gripper(reading)
 
+    def on_gripper_command_resent(self) -> None:
+        """The fingers' last command went again (to a gripper node that came back): reports
+        that do not echo it yet are in transit, not a stray command."""
+        if self.supervisor.commanded is not None:
+            self.supervisor.reassert(self._now)
+
     def on_arm_status(self, status: ArmStatus) -> None:
         """Handled by the next tick."""
         if self.guard.on_arm_status(status):
@@ -241,7 +247,8 @@ class ExecutorCore:
         """Stream the script's setpoint; act on its fault (a grasp fault is not one while
         stopping), or on its end."""
         inbox = self.inbox
-        tick = self.player.advance(now, inbox.tcp, inbox.tcp_stamp, inbox.take_gaps())
+        tick = self.player.advance(now, inbox.tcp, inbox.tcp_stamp, inbox.take_gaps(),
+                                   inbox.gripper_reports)
         self._out.setpoint, self._out.gripper = tick.setpoint, tick.gripper
         fault = tick.fault
         if fault is None:

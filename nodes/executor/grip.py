@@ -27,8 +27,27 @@ GRIP_OPEN_SLACK = 0.002
 #: Counted from the command (the fingers stand still before it, and for the gripper's
 #: latency after it); a pad that drags on the block pauses for less.
 GRIP_STALL_S = 1.0
-#: A gripper that neither reaches its opening nor stops within this long has failed (s).
+#: A gripper that neither reaches its opening nor stops within this long has failed (s),
+#: counted from its first report after the command.
 GRIP_TIMEOUT_S = 3.0
+#: A gripper that has reported before and reports nothing for this long after a command is
+#: gone (s): its node died and was not brought back (a respawn takes a few seconds).
+GRIPPER_SILENT_S = 20.0
+#: A pause in the gripper's reports this long is its node gone (s): what it reports after
+#: one comes from a node that started anew (and got the command again).
+GRIPPER_PAUSE_S = 1.0
+
+
+def since_pause(samples: list[tuple[float, float]], now: float) -> list[tuple[float, float]]:
+    """The (time, gap) samples since the last pause of GRIPPER_PAUSE_S in them; none while
+    the gripper is in one now."""
+    if not samples or now - samples[-1][0] > GRIPPER_PAUSE_S:
+        return []
+    start = 0
+    for k in range(1, len(samples)):
+        if samples[k][0] - samples[k - 1][0] > GRIPPER_PAUSE_S:
+            start = k
+    return samples[start:]
 
 
 def opening_stalled(since_command: list[tuple[float, float]], opening: float) -> bool:

@@ -29,6 +29,10 @@ class ExecutorInputs(Protocol):
     def on_gripper(self, reading: GripperStatus) -> None:
         """The gripper driver's status: gap, request and object detection."""
 
+    def on_gripper_command_resent(self) -> None:
+        """The executor's own lease client: the fingers' last command went again, to a
+        gripper node that restarted (its reports echo it only once it arrives)."""
+
     def on_arm_status(self, status: ArmStatus) -> None:
         """The arm node: the arm can move, or it is held (a protective stop, a stopped
         program, lost joint states, the slider at 0) and why."""
@@ -66,6 +70,8 @@ class Inbox:
     finger_gap: float | None = None
     gaps: list[tuple[float, float]] = field(default_factory=list)  #: (time s, gap m)
     readings: list[GripperStatus] = field(default_factory=list)
+    #: the gripper has sent finger measurements: one silent after a command is not there
+    gripper_reports: bool = False
 
     def on_tcp(self, pose: ToolPose, stamp_s: float | None) -> None:
         self.tcp, self.tcp_stamp = pose, stamp_s
@@ -74,11 +80,13 @@ class Inbox:
         self.finger_gap = gap
         if stamp_s is not None:
             self.gaps.append((stamp_s, gap))
+            self.gripper_reports = True
 
     def on_gripper(self, reading: GripperStatus) -> None:
         self.finger_gap = reading.gap
         self.gaps.append((reading.stamp_ns * 1e-9, reading.gap))
         self.readings.append(reading)
+        self.gripper_reports = True
 
     def take_gaps(self) -> list[tuple[float, float]]:
         gaps, self.gaps = self.gaps, []

@@ -105,6 +105,7 @@ class ExecutorNode(Node):
         # of a block lost the open sent meanwhile, and the arm parked with the block in hand)
         self.gripper_control = LeaseClient(self, "gripper", "command", Float64,
                                            resend_s=math.inf)
+        self._want_control = False  # the leases wanted at the last tick
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
@@ -175,11 +176,17 @@ class ExecutorNode(Node):
                 self.core.on_planner_failed(status.last_error)
 
     def on_gripper(self, msg: GripperStatus) -> None:
+        """The gripper's status; while the executor wants the fingers, a gripper that does not
+        name it as its holder does not take its commands (a node that restarted, its lease
+        not yet taken again): what it reports says nothing about them, and is not judged."""
         status = self._decoded(msg, gripper_status_from_msg, "/gripper/status")
-        if status is not None:
-            self.gripper_control.on_device_status(status.lease_holder)
-            with self.lock:
-                self.core.on_gripper(status)
+        if status is None:
+            return
+        self.gripper_control.on_device_status(status.lease_holder)
+        if self._want_control and status.lease_holder != self.get_fully_qualified_name():
+            return
+        with self.lock:
+            self.core.on_gripper(status)
 
     def on_arm_status(self, msg: ArmStatus) -> None:
         status = self._decoded(msg, arm_status_from_msg, "/arm/status", (MessageError,
@@ -254,9 +261,14 @@ class ExecutorNode(Node):
         # that died, under the same name, so the public topic stays closed to it)
         commanding = out.setpoint is not None or out.gripper is not None
         want = self.config.take_control and (status.state in CONTROL_STATES or commanding)
+        self._want_control = want
+        resends = self.gripper_control.resends
         for line in [*out.log, *self.arm_control.update(want),
                      *self.gripper_control.update(want)]:
             self.get_logger().info(line)
+        if self.gripper_control.resends != resends:
+            with self.lock:
+                self.core.on_gripper_command_resent()
         if out.setpoint is not None:
             self.arm_control.publish(self._setpoint_msg(out.setpoint, now))
         if out.gripper is not None:

@@ -61,9 +61,10 @@ class Player:
         self.then = script.then
 
     def advance(self, now: float, tcp: ToolPose | None, tcp_stamp: float | None,
-                gaps: Sequence[tuple[float, float]]) -> Tick:
+                gaps: Sequence[tuple[float, float]], gripper_reports: bool = False) -> Tick:
         """The script at ``now``, given the measured TCP (taken at ``tcp_stamp``) and the
-        finger gaps (time, gap) measured since the last tick.
+        finger gaps (time, gap) measured since the last tick (``gripper_reports``: the
+        gripper has reported before, see ``StepRunner.update``).
 
         Script time advances at most MAX_TICKS_PER_STEP ticks per tick: an executor held up
         (a loaded machine) resumes its trajectory where it was, so consecutive setpoints
@@ -74,7 +75,8 @@ class Player:
         self._last_run = now
         lag = self._lag
         measured_at = None if tcp_stamp is None else tcp_stamp - lag
-        tick = self.runner.update(now - lag, tcp, measured_at, [(t - lag, g) for t, g in gaps])
+        tick = self.runner.update(now - lag, tcp, measured_at, [(t - lag, g) for t, g in gaps],
+                                  gripper_reports)
         self.commanded = tick.setpoint
         return tick
 

@@ -29,8 +29,10 @@ from nodes.executor.grip import (
     GRIP_MIN_S,
     GRIP_STALL_S,
     GRIP_TIMEOUT_S,
+    GRIPPER_SILENT_S,
     gripper_done,
     opening_stalled,
+    since_pause,
 )
 from nodes.executor.motion import (
     Blending,
@@ -177,6 +179,7 @@ class StepRunner:
         self._move: LinearMove | None = None
         self._blending: list[Blending] = []
         self.gripper: float | None = None
+        self.gripper_reports = False  #: see ``update``
         self._gripper_sent = False
         self._gaps: list[tuple[float, float]] = []
         self.finished_steps: list[Step] = []  #: steps that ended in the last update
@@ -196,10 +199,13 @@ class StepRunner:
         return "" if step is None else step.label
 
     def update(self, now: float, measured: ToolPose | None, measured_at: float | None = None,
-               gaps: Sequence[tuple[float, float]] = ()) -> Tick:
+               gaps: Sequence[tuple[float, float]] = (), gripper_reports: bool = False
+               ) -> Tick:
         """Advance to time ``now`` (s); ``measured`` is the latest TCP (None if unknown),
         ``gaps`` the finger gaps (time s, gap m) measured since the last call (none when the
-        gripper reports nothing).
+        gripper reports nothing). ``gripper_reports``: the gripper has reported before, so a
+        silence after a command means it is not there (its node died and is coming back), not
+        that it reports nothing: the grip waits for it.
 
         Steps that finish within this call hand their gripper command on, so a ``Grip``
         followed at once by a move still reaches the gripper. ``measured_at`` is the time the
@@ -209,6 +215,7 @@ class StepRunner:
         """
         self._measured_at = now if measured_at is None else measured_at
         self._gaps.extend(gaps)
+        self.gripper_reports = gripper_reports
         self.finished_steps = []
         gripper: float | None = None
         while not self.finished:
@@ -347,20 +354,33 @@ class StepRunner:
         self._gripper_sent = True
         self.gripper = step.opening
         t0 = self._t0 if self._t0 is not None else 0.0
-        measured = [(s, g) for s, g in self._gaps if s >= t0]
+        since_command = [(s, g) for s, g in self._gaps if s >= t0]
+        # judged on the reports since the gripper's last pause, its time counted from the
+        # first of them: a gripper node that died after the command and came back (it gets
+        # the command again with its lease) is judged on what the new node did
+        measured = since_pause(since_command, t0 + t)
+        heard = t - (measured[0][0] - t0) if measured else 0.0
         if not step.wait:
             done = True
-        elif not measured:
+        elif not measured and not (self.gripper_reports or since_command):
             done = t >= step.settle_s
+        elif not measured:
+            silent = t0 + t - max([t0] + [s for s, _ in since_command[-1:]])
+            if silent > GRIPPER_SILENT_S:
+                return Tick(self.commanded, gripper, False, StepFault(
+                    StepFaultKind.GRIPPER_TIMEOUT,
+                    f"step '{step.label}': the gripper has reported nothing for "
+                    f"{silent:.0f} s (is its node running?)"), step.label)
+            done = False
         else:
-            done = t >= GRIP_MIN_S and gripper_done(self._gaps, step.opening, t)
-        if not done and t >= GRIP_STALL_S and opening_stalled(measured, step.opening):
+            done = t >= GRIP_MIN_S and gripper_done(self._gaps, step.opening, heard)
+        if not done and heard >= GRIP_STALL_S and opening_stalled(measured, step.opening):
             return Tick(self.commanded, gripper, False, StepFault(
                 StepFaultKind.STALLED,
                 f"step '{step.label}': the fingers stopped opening at "
                 f"{measured[-1][1] * 1e3:.1f} mm (asked for {step.opening * 1e3:.1f} mm)"),
                 step.label)
-        if not done and measured and t > GRIP_TIMEOUT_S:
+        if not done and measured and heard > GRIP_TIMEOUT_S:
             return Tick(self.commanded, gripper, False, StepFault(
                 StepFaultKind.GRIPPER_TIMEOUT,
                 f"step '{step.label}': the gripper neither reached {step.opening * 1e3:.1f} mm "

@@ -90,12 +90,11 @@ class GripperNode(Node):
             stuck = self.watch.never_moved(stamp)
         if stuck:
             self.get_logger().error(f"{stuck} (reactivate: {drivers.GRIPPER_REACTIVATE})")
-        if status is not None:
-            lease = self.lease.status()
-            status = dataclasses.replace(status, lease_holder=lease.holder,
-                                         refused_commands=lease.refused_commands,
-                                         refused_commanders=lease.refused_commanders)
-            self.pub_status.publish(msg_codecs.gripper_status_to_msg(status))
+        lease = self.lease.status()
+        status = dataclasses.replace(status, lease_holder=lease.holder,
+                                     refused_commands=lease.refused_commands,
+                                     refused_commanders=lease.refused_commanders)
+        self.pub_status.publish(msg_codecs.gripper_status_to_msg(status))
 
 
 TOPICS = """

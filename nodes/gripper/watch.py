@@ -16,6 +16,10 @@ command from another program shows too):
 
 It also notices a gripper that does not move at all after a command far from where it stands
 (``never_moved_s``): not activated, faulted, or unplugged.
+
+Before the first command it sees, the request is taken to be where the fingers stand (nobody
+asked for anything else): a node that has just (re)started reports at once, so a commander
+that held the lease of the node that died learns from the status that nobody holds it now.
 """
 
 from __future__ import annotations
@@ -56,9 +60,9 @@ class KnuckleWatch:
         self._moved_since_command = False
         self._warned = False
 
-    def on_position(self, knuckle: float, at_s: float) -> GripperStatus | None:
-        """A knuckle position (rad) measured at ``at_s``; the status it makes (None before the
-        first command: nothing to compare with)."""
+    def on_position(self, knuckle: float, at_s: float) -> GripperStatus:
+        """A knuckle position (rad) measured at ``at_s``; the status it makes (before the
+        first command, the request is where the fingers stand)."""
         gap = g85.knuckle_to_gap(knuckle)
         self._samples.append((at_s, gap))
         while len(self._samples) > 2 and self._samples[1][0] <= at_s - self.limits.still_s:
@@ -68,7 +72,7 @@ class KnuckleWatch:
         if abs(gap - self._gap_at_command) > self.limits.at_position_m:
             self._moved_since_command = True
         if self.requested_gap is None:
-            return None
+            self.requested_gap = gap
         return GripperStatus(gap, self.requested_gap, self._object(gap, at_s),
                              round(at_s * 1e9))
 

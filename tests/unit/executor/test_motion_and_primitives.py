@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
-from nodes.executor.grip import GRIP_STALL_S, GRIP_TIMEOUT_S
+from nodes.executor.grip import GRIP_STALL_S, GRIP_TIMEOUT_S, GRIPPER_SILENT_S
 from nodes.executor.motion import Limits, LinearMove, ToolPose, move_duration
 from nodes.executor.primitives import (
     action_steps,
@@ -363,6 +363,44 @@ def test_a_step_tried_again_runs_after_what_goes_before_it_then_the_rest_follows
 def test_a_gripper_that_neither_arrives_nor_stops_is_an_error():
     _, error = run_grip(lambda t: 0.0688 - 0.005 * t, 0.0, until=5.0)  # a slow creep
     assert "gripper neither reached 0.0 mm nor stopped" in error
+
+
+def test_a_release_waits_for_a_gripper_node_that_went_silent_and_its_time_starts_when_it_is_back():
+    """Chaos (the gripper node SIGKILLed as the fingers opened on a block): the release was
+    taken as done after the 0.3 s wait for a gripper that reports nothing, the arm left the
+    block in the fingers. A gripper that has reported before is waited for; once back (4 s
+    later), the opening gets its own time to be judged."""
+    runner = StepRunner([Grip(0.0688, 0.3, "release")], HOME, 0.002, 1.0)
+    runner.update(0.0, HOME, gaps=[(0.0, 0.0508)], gripper_reports=True)
+    t, tick = 0.02, None
+    while t < 4.0:  # nothing comes: the node is down
+        tick = runner.update(t, HOME, gripper_reports=True)
+        assert not tick.done and not tick.error
+        t += 0.02
+    back = t
+    while t < back + 2.0:  # back, it stands closed for 0.4 s, then opens at 150 mm/s
+        gap = min(0.0688, 0.0508 + 0.15 * max(0.0, t - back - 0.4))
+        tick = runner.update(t, HOME, gaps=[(t, gap)], gripper_reports=True)
+        assert not tick.error
+        if tick.done:
+            break
+        t += 0.02
+    assert tick is not None and tick.done and t >= back + 0.4 + 0.018 / 0.15 - 0.03
+
+
+def test_a_long_silent_gripper_is_an_error_one_that_never_reports_waits_the_settle_time():
+    runner = StepRunner([Grip(0.0688, 0.3, "release")], HOME, 0.002, 1.0)
+    t, tick = 0.0, None
+    while t < GRIPPER_SILENT_S + 1.0:
+        tick = runner.update(t, HOME, gripper_reports=True)
+        if tick.error:
+            break
+        t += 0.02
+    assert tick is not None and tick.fault is not None
+    assert tick.fault.kind is StepFaultKind.GRIPPER_TIMEOUT
+    assert "reported nothing" in tick.error and t >= GRIPPER_SILENT_S
+    silent = StepRunner([Grip(0.0688, 0.3, "release")], HOME, 0.002, 1.0)
+    assert not silent.update(0.0, HOME).done and silent.update(0.32, HOME).done
 
 
 def test_a_blended_corner_stays_within_its_radius_and_under_the_speed_limit():

@@ -61,3 +61,15 @@ def test_a_gripper_that_never_moves_is_reported_once():
     words = watch.never_moved(0.62)
     assert "did not move" in words and "activated" in words
     assert watch.never_moved(0.7) == ""
+
+
+def test_before_any_command_the_status_reads_the_fingers_where_they_stand():
+    """A node that has just (re)started reports at once (its lease holder with it), without
+    claiming a command nobody sent."""
+    watch = KnuckleWatch()
+    first = samples(watch, [BLOCK_SIZE], 0.0)[0]
+    assert first.gap == pytest.approx(BLOCK_SIZE)
+    assert first.requested_gap == pytest.approx(BLOCK_SIZE)
+    assert first.object == "at_position" and not first.holds_object
+    watch.on_command(g85.gap_to_knuckle(0.085), 0.02)
+    assert samples(watch, [BLOCK_SIZE], 0.03)[0].requested_gap == pytest.approx(0.085)
