@@ -239,6 +239,12 @@ class LeaseClient:
             self.keeper.on_device_holder(holder, self.node.get_fully_qualified_name(),
                                          time.monotonic())
 
+    def takes_my_commands(self, holder: str) -> bool:
+        """The device's status names this node as its holder (``holder``) and the commands go
+        on its private topic: what the device reports now answers them."""
+        with self._lock:
+            return holder == self.node.get_fully_qualified_name() and self.keeper.connected
+
     def publish(self, msg: Any) -> None:
         with self._lock:
             private = self._private if self.keeper.connected else None

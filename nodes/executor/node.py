@@ -177,13 +177,14 @@ class ExecutorNode(Node):
 
     def on_gripper(self, msg: GripperStatus) -> None:
         """The gripper's status; while the executor wants the fingers, a gripper that does not
-        name it as its holder does not take its commands (a node that restarted, its lease
-        not yet taken again): what it reports says nothing about them, and is not judged."""
+        take its commands yet (a node that restarted: its lease not yet taken again, or the
+        commands not yet on the new lease's topic) reports nothing about them: not judged
+        (its request, where the fingers stood, would read as a stray command)."""
         status = self._decoded(msg, gripper_status_from_msg, "/gripper/status")
         if status is None:
             return
         self.gripper_control.on_device_status(status.lease_holder)
-        if self._want_control and status.lease_holder != self.get_fully_qualified_name():
+        if self._want_control and not self.gripper_control.takes_my_commands(status.lease_holder):
             return
         with self.lock:
             self.core.on_gripper(status)
