@@ -50,7 +50,7 @@ from nodes.executor.decisions import (
     Then,
     VerifyGoal,
 )
-from nodes.executor.faults import ArmHold
+from nodes.executor.faults import ARM_SILENT_S, ArmHold
 from nodes.executor.inputs import Inbox
 from nodes.executor.ledger import activity_of
 from nodes.executor.motion import ToolPose
@@ -224,6 +224,9 @@ class ExecutorCore:
         if self.state is State.OBSERVING and self.camera.due(now, self.inbox.tcp):
             self.report.log(f"frame on the way, the tool {self.camera.near_dist * 1e3:.0f} mm "
                             "from the pose picked for it")
+        stamp = self.inbox.tcp_stamp
+        self.guard.on_tcp_silence(self.player.busy and self.state is not State.IDLE
+                                  and stamp is not None and now - stamp > ARM_SILENT_S)
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:
