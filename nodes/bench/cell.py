@@ -44,9 +44,9 @@ meets (what happens; when):
 
 from __future__ import annotations
 
+import functools
 import json
 import math
-import multiprocessing
 import statistics
 import tempfile
 import time
@@ -67,6 +67,7 @@ from msgs_py import Scene, drivers, save_plan, save_scene
 from msgs_py.ros import disturbance_to_msg, sim_fault_to_msg
 from msgs_py.sim import Disturbance
 from msgs_py.sim import SimFault as SimFaultRecord
+from nodes.bench.isolation import metrics_file, run_scene_isolated
 from nodes.cell.monitor import RunMonitor
 from nodes.cell.processes import CellRun, private_domain, private_ros_home, stop_cells_on_sigterm
 from nodes.cell.run import check_goal, run_metrics
@@ -309,51 +310,6 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
     return metrics
 
 
-def metrics_file(workdir: Path, blocks: int, seed: int, fault: str) -> Path:
-    return workdir / f"metrics_{blocks}_{seed}_{fault}.json"
-
-
-#: A scene's client process still there this long after it wrote its metrics is killed (s):
-#: its DDS teardown hung (Fast DDS 2.14 was seen to deadlock once in 18 chaos scenes, in
-#: ``PDP::removeWriterProxyData`` while the client node's publishers were destroyed).
-TEARDOWN_GRACE_S = 30.0
-#: Beyond the scene's own timeout, the wall time a scene's process may take to start and end
-#: the cell (s).
-SCENE_SLACK_S = 180.0
-
-
-def run_scene_isolated(blocks: int, density: float, seed: int, fault: str, timeout: float,
-                       workdir: Path, target: Callable[..., Any] = run_scene,
-                       grace_s: float = TEARDOWN_GRACE_S) -> dict[str, Any]:
-    """``run_scene`` (``target``) in a process of its own: a DDS teardown that hangs costs
-    that process, killed ``grace_s`` after its metrics are written, not the benchmark."""
-    out = metrics_file(workdir, blocks, seed, fault)
-    out.unlink(missing_ok=True)
-    proc = multiprocessing.get_context("spawn").Process(
-        target=target, args=(blocks, density, seed, fault, timeout, workdir),
-        name=f"scene-{blocks}-{seed}-{fault}")
-    proc.start()
-    deadline = time.monotonic() + timeout + SCENE_SLACK_S
-    try:
-        while proc.is_alive() and not out.exists() and time.monotonic() < deadline:
-            proc.join(1.0)
-        proc.join(grace_s)
-    finally:
-        if proc.is_alive() and not out.exists():  # interrupted: it stops its cell on SIGTERM
-            proc.terminate()
-            proc.join(grace_s)
-    if proc.is_alive():
-        print(f"  {blocks} blocks, {fault}, seed {seed}: the scene's process did not end "
-              f"{grace_s:.0f} s after its run (a hung DDS teardown): killed",
-              flush=True)
-        proc.kill()
-        proc.join()
-    if not out.exists():
-        raise RuntimeError(f"scene {blocks} blocks, {fault}, seed {seed}: its process ended "
-                           f"(exit code {proc.exitcode}) without metrics; see {workdir}")
-    return json.loads(out.read_text())
-
-
 def is_success(m: dict[str, Any]) -> bool:
     """Done with every block at its goal (3 mm / 2 deg by ground truth), none lost; for a
     block taken away, the documented outcome: failed, naming that block, none lost; for a
@@ -416,8 +372,9 @@ def look_pose_share(looks: dict[str, float]) -> float | None:
     return round(looks.get("from_look_pose", 0.0) / total, 3) if total else None
 
 
-def run(opts, scene_runner: Callable[..., dict[str, Any]] = run_scene_isolated
+def run(opts, scene_runner: Callable[..., dict[str, Any]] | None = None
         ) -> list[dict[str, Any]]:
+    scene_runner = scene_runner or functools.partial(run_scene_isolated, target=run_scene)
     faults = [f for f in FAULTS if f != "chaos"] if "all" in opts.fault else opts.fault
     if opts.chaos:
         faults = [*(f for f in faults if f != "none"), "chaos"]

@@ -210,6 +210,7 @@ class LeaseClient:
         self._private: tuple[str, Any] | None = None  # (topic, publisher)
         self._lock = threading.Lock()
         self.resends = 0  #: how often the last command went again at a switch
+        self._was_connected = False  # a lease of this device was ever connected
 
     def update(self, want: bool) -> list[str]:
         """Take or give back the lease as ``want`` says; returns the lines to log."""
@@ -218,6 +219,7 @@ class LeaseClient:
             subscribers = 0 if self._private is None else self._private[1].get_subscription_count()
             ask = self.keeper.step(want, now, self.client.service_is_ready(), subscribers)
             self._sync_publisher()
+            self._was_connected = self._was_connected or self.keeper.connected
             token = self.keeper.token
             lines = self.keeper.take_log()
             if self.keeper.switched:
@@ -241,8 +243,12 @@ class LeaseClient:
 
     def takes_my_commands(self, holder: str) -> bool:
         """The device's status names this node as its holder (``holder``) and the commands go
-        on its private topic: what the device reports now answers them."""
+        on its private topic: what the device reports now answers them. Before this node was
+        ever connected to a lease (a device without leases, or the first run), the device is
+        taken at its word."""
         with self._lock:
+            if not self._was_connected:
+                return True
             return holder == self.node.get_fully_qualified_name() and self.keeper.connected
 
     def publish(self, msg: Any) -> None:

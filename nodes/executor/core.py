@@ -4,9 +4,7 @@ The node feeds ``ExecutorCore`` through ``ExecutorInputs`` (``nodes/executor/inp
 plans, detections, the measured TCP, the gripper's reports, the arm's safety mode, start and
 stop) and calls ``tick(now)`` at the streaming rate; the core answers with the setpoint and
 gripper command to publish and whether to trigger the camera or ask the planner for a new
-plan. The loop, per the paper's cell plus perception feedback:
-
-    observe -> check the world is as expected -> run action k -> observe -> ...
+plan. The loop: observe -> check the world is as expected -> run action k -> observe -> ...
 
 The core holds the belief (``Belief``: the plan, the next action, the blocks expected and
 perceived, what the fingers hold) and the state (``ExecutorState``; every change between
@@ -50,7 +48,7 @@ from nodes.executor.decisions import (
     Then,
     VerifyGoal,
 )
-from nodes.executor.faults import ARM_SILENT_S, ArmHold
+from nodes.executor.faults import ArmHold
 from nodes.executor.inputs import Inbox
 from nodes.executor.ledger import activity_of
 from nodes.executor.motion import ToolPose
@@ -224,9 +222,6 @@ class ExecutorCore:
         if self.state is State.OBSERVING and self.camera.due(now, self.inbox.tcp):
             self.report.log(f"frame on the way, the tool {self.camera.near_dist * 1e3:.0f} mm "
                             "from the pose picked for it")
-        stamp = self.inbox.tcp_stamp
-        self.guard.on_tcp_silence(self.player.busy and self.state is not State.IDLE
-                                  and stamp is not None and now - stamp > ARM_SILENT_S)
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:

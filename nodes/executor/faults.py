@@ -45,10 +45,6 @@ from nodes.executor.supervision import Expect, FaultKind, GraspFault, GraspSuper
 MAX_RELEASE_STALLS = 2
 #: With nothing held, a stalled opening is tried again after lifting the tool this far (m).
 UNLOAD_LIFT_M = 0.003
-#: A script plays and the arm's TCP is this old (s): the arm node is not there (lockstep
-#: simulation stops the clock with the arm, so a loaded machine does not age it).
-ARM_SILENT_S = 1.0
-ARM_SILENT_REASON = "the arm reports nothing that answers the executor's setpoints"
 #: A protective stop not unlocked this long after asking is asked again (s).
 UNLOCK_RETRY_S = 1.0
 #: A held block that stops the arm with the tool below grasp height + this many block sizes
@@ -225,7 +221,6 @@ class ArmHold:
     protective: bool = False
     cleared: str | None = None
     unlock_asked_at: float | None = None
-    silent: bool = False  #: held because the arm reports no TCP (``on_tcp_silence``)
 
     @property
     def engaged(self) -> bool:
@@ -235,7 +230,7 @@ class ArmHold:
     def on_arm_status(self, status: ArmStatus) -> bool:
         """The arm can move, or it is held and why; True when a protective stop began."""
         if status.ready or status.state == "paused":  # paused: setpoints are still taken
-            if self.reason is not None and not self.silent:
+            if self.reason is not None:
                 self.cleared, self.reason = self._described(), None
             return False
         began = status.protective_stop and not (self.reason is not None and self.protective)
@@ -244,19 +239,6 @@ class ArmHold:
         self.protective = status.protective_stop
         self.reason = status.reason or status.state.replace("_", " ")
         return began
-
-    def on_tcp_silence(self, silent: bool) -> None:
-        """A script plays and the arm has reported no TCP for ARM_SILENT_S (its node died
-        and is coming back, or does not take the executor's commands yet): held, as for a
-        stopped program, until it reports again. Streaming on meanwhile, the script would run
-        ahead of an arm that stands still, and the node back would chase it (seen: a respawned
-        arm node drove the fingers into a block at 378 N, a second after it came back)."""
-        if silent and self.reason is None:
-            self.reason, self.protective, self.silent = ARM_SILENT_REASON, False, True
-        elif not silent and self.silent:
-            self.silent = False
-            if self.reason == ARM_SILENT_REASON:
-                self.cleared, self.reason = self._described(), None
 
     def _described(self) -> str:
         return f"protective stop: {self.reason}" if self.protective else (

@@ -106,7 +106,6 @@ class ExecutorNode(Node):
         self.gripper_control = LeaseClient(self, "gripper", "command", Float64,
                                            resend_s=math.inf)
         self._want_control = False  # the leases wanted at the last tick
-        self._arm_holder = ""  # the lease holder the arm's status names
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
@@ -161,8 +160,6 @@ class ExecutorNode(Node):
         pose = self._decoded(msg, tool_pose_from_msg, "/arm/tcp_pose", (ValueError,))
         if pose is None:
             return
-        if self._want_control and not self.arm_control.takes_my_commands(self._arm_holder):
-            return  # the arm does not take the executor's setpoints yet: nothing to follow
         stamp = stamp_seconds(msg.header.stamp)
         with self.lock:
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
@@ -196,7 +193,6 @@ class ExecutorNode(Node):
         status = self._decoded(msg, arm_status_from_msg, "/arm/status", (MessageError,
                                                                          ValueError))
         if status is not None:
-            self._arm_holder = status.lease_holder
             self.arm_control.on_device_status(status.lease_holder)
             with self.lock:
                 self.core.on_arm_status(status)

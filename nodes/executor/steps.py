@@ -368,9 +368,8 @@ class StepRunner:
             silent = t0 + t - max([t0] + [s for s, _ in since_command[-1:]])
             if silent > GRIPPER_SILENT_S:
                 return Tick(self.commanded, gripper, False, StepFault(
-                    StepFaultKind.GRIPPER_TIMEOUT,
-                    f"step '{step.label}': the gripper has reported nothing for "
-                    f"{silent:.0f} s (is its node running?)"), step.label)
+                    StepFaultKind.GRIPPER_TIMEOUT, f"step '{step.label}': the gripper has "
+                    f"reported nothing for {silent:.0f} s (is its node running?)"), step.label)
             done = False
         else:
             done = t >= GRIP_MIN_S and gripper_done(self._gaps, step.opening, heard)

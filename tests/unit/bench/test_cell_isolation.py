@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from nodes.bench.cell import metrics_file, run_scene_isolated
+from nodes.bench.isolation import metrics_file, run_scene_isolated
 
 
 def writes_then_hangs(blocks, density, seed, fault, timeout, workdir: Path) -> None:

@@ -162,33 +162,6 @@ def test_a_protective_stop_on_the_way_down_is_unlocked_then_the_arm_backs_up_and
     assert core.state is State.DONE and core.report.metrics["protective_stops"] == 1
 
 
-def test_an_arm_that_stops_reporting_mid_run_holds_the_script_then_backs_up_and_looks():
-    """Chaos: the arm node SIGKILLed during action 1; the executor streamed its descent on
-    into the void, and the node back drove the fingers into a block at 378 N. An arm silent
-    for ARM_SILENT_S holds the script; once it reports again the arm backs up from where it
-    stands and looks, and the run ends at its goal."""
-    core = ExecutorCore(CFG)
-    world = World(core, START)
-    world.arm_silent = lambda t: False
-    core.on_plan(two_action_plan())
-    world.run(lambda: core.state is State.RUNNING and core.player.busy)
-    world.run(lambda: step_is(core, "descend"))
-    gone = world.t_end
-    world.arm_silent = lambda t: gone < t < gone + 3.0
-    world.run(lambda: core.guard.engaged, max_t=faults.ARM_SILENT_S + 0.1)
-    held = world.t_end
-    assert held - gone == pytest.approx(faults.ARM_SILENT_S, abs=2 * DT)
-    assert faults.ARM_SILENT_REASON in core.report.detail
-    world.run(lambda: not core.guard.engaged, max_t=3.0)
-    assert world.t_end >= gone + 3.0 - DT
-    # nothing streamed while the arm was gone
-    assert not [t for t, _, _ in world.setpoints if held < t < gone + 3.0 - DT]
-    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
-    assert any(faults.ARM_SILENT_REASON + ": backing up and looking again" in line
-               for line in world.logs)
-    assert core.state is State.DONE
-
-
 def test_a_protective_stop_not_unlocked_is_asked_again_each_second():
     core = ExecutorCore(CFG)
     world = World(core, START)

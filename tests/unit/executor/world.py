@@ -72,11 +72,7 @@ class World:
         self.placements = []  # what the executor reports it set down
         self.floor: Callable[[ToolPose], float] = lambda tool: 0.0  # the TCP stops on it
         self.max_speed = 0.0
-        #: None: the TCP is fed unstamped with each setpoint; else the arm reports its TCP,
-        #: stamped, every tick, except while ``arm_silent(t)`` (its node is gone)
-        self.arm_silent: Callable[[float], bool] | None = None
-        self.tool = ToolPose(0.3, -0.55, 0.45, 0.0)
-        core.on_tcp(self.tool)
+        core.on_tcp(ToolPose(0.3, -0.55, 0.45, 0.0))
 
     def _held_block(self) -> int | None:
         held = self.core.belief.held
@@ -102,12 +98,8 @@ class World:
                     self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
                 last = out.setpoint
                 floor = self.floor(out.setpoint)
-                self.tool = (out.setpoint if out.setpoint.z >= floor
-                             else out.setpoint.with_z(floor))
-                if self.arm_silent is None:
-                    self.core.on_tcp(self.tool)
-            if self.arm_silent is not None and not self.arm_silent(t):
-                self.core.on_tcp(self.tool, t)
+                self.core.on_tcp(out.setpoint if out.setpoint.z >= floor
+                                 else out.setpoint.with_z(floor))
             holding = self._held_block()
             if held is not None and holding is None and self.gripper is None:  # set down
                 self.blocks[held] = self.core.belief.expected[held]
