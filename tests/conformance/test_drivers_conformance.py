@@ -32,6 +32,7 @@ from nodes.arm.node import ArmNode
 from nodes.common.qos import LATCHED
 from nodes.common.standard_msgs import pose_stamped_msg, stamp_seconds
 from nodes.common.transforms import tool_down_quaternion
+from nodes.executor.player import MAX_TICKS_PER_STEP
 from nodes.gripper.node import GripperNode
 from nodes.sim.config import HOME_JOINTS, PARK_POSITION
 from nodes.sim.node import SimNode
@@ -89,17 +90,21 @@ class Cell:
 
     def stream(self, path, seconds: float, rate: float = 50.0, yaw: float = 0.0) -> None:
         """Stream ``path(u)`` for u in [0, 1] over ``seconds`` of the cell's clock, stamped
-        with it (as the executor streams)."""
+        with it, as the executor streams: the path's time advances at most
+        ``MAX_TICKS_PER_STEP`` ticks per setpoint, so a streamer held up (this test's thread
+        shares the process with the sim and the nodes) resumes where it was instead of
+        sending a chord across the path."""
         self.ros.wait_for_subscribers(self.setpoints)
-        t0 = self.now
-        last = None
+        s, last = 0.0, None
         while True:
             t = self.now
             if last is not None and t - last < 1.0 / rate:
                 time.sleep(0.002)
                 continue
+            if last is not None:
+                s += min(t - last, MAX_TICKS_PER_STEP / rate)
             last = t
-            u = min((t - t0) / seconds, 1.0)
+            u = min(s / seconds, 1.0)
             stamp = Clock().clock
             stamp.sec, stamp.nanosec = int(t), round((t % 1.0) * 1e9) % 1_000_000_000
             self.setpoints.publish(pose_stamped_msg(stamp, path(u), tool_down_quaternion(yaw)))
