@@ -21,8 +21,7 @@ def metrics_file(workdir: Path, blocks: int, seed: int, fault: str) -> Path:
 
 
 #: A scene's client process still there this long after it wrote its metrics is killed (s):
-#: its DDS teardown hung (Fast DDS 2.14 was seen to deadlock once in 18 chaos scenes, in
-#: ``PDP::removeWriterProxyData`` while the client node's publishers were destroyed).
+#: its DDS teardown hung (see the module's docstring).
 TEARDOWN_GRACE_S = 30.0
 #: Beyond the scene's own timeout, the wall time a scene's process may take to start and end
 #: the cell (s).
