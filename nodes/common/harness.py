@@ -101,6 +101,19 @@ class RosHarness:
                 if not self.context.ok():
                     break
                 self._errors.append(err)
+            self._let_workers_start()
+
+    def _let_workers_start(self, limit_s: float = 0.01) -> None:
+        """Wait (at most ``limit_s``) until the worker threads have started the callbacks
+        handed to them. Jazzy's MultiThreadedExecutor yields a callback handed out but not yet
+        started again on its next wake-up, at once: the spinning thread then loops holding
+        the GIL the workers need to start it, and on 2 cores the node timers fell to 4-12 Hz
+        of 50 (a two-action fake-cell run took 35 s instead of 6)."""
+        deadline = time.monotonic() + limit_s
+        while time.monotonic() < deadline and any(
+                not (task.executing() or task.done())
+                for task in list(getattr(self.executor, "_futures", ()))):
+            time.sleep(0.0005)
 
     # --- nodes ----------------------------------------------------------------------------------
     def add(self, node: Node) -> Node:

@@ -83,8 +83,7 @@ class ExecutorCore:
         self._started_at: float | None = None
         self._now = 0.0
         self._out = Outputs()
-        #: the camera as known (camera_info, the calibration): to look on the way; None: from
-        #: the look pose (the node sets it)
+        #: the camera as the node knows it, to look on the way (None: from the look pose)
         self.view: View | None = None
         #: what a state does on a tick with no script playing (idle: before the arm moves)
         self._at_rest: dict[State, Callable[[], Decision | None]] = {
@@ -142,6 +141,9 @@ class ExecutorCore:
         """Handled by the next tick."""
         if self.guard.on_arm_status(status):
             self.report.count("protective_stops")
+
+    def on_arm_lost(self, why: str | None) -> None:
+        self.guard.on_arm_lost(why)  # ArmWatch's word, handled by the next tick
 
     def on_calibration(self, checked: bool | None) -> None:
         """The detector's word on its calibration: checked against the arm's placements

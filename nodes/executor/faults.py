@@ -221,6 +221,7 @@ class ArmHold:
     protective: bool = False
     cleared: str | None = None
     unlock_asked_at: float | None = None
+    lost: bool = False  #: the hold is the arm node's absence (``ArmWatch``), not its status
 
     @property
     def engaged(self) -> bool:
@@ -230,15 +231,28 @@ class ArmHold:
     def on_arm_status(self, status: ArmStatus) -> bool:
         """The arm can move, or it is held and why; True when a protective stop began."""
         if status.ready or status.state == "paused":  # paused: setpoints are still taken
-            if self.reason is not None:
+            if self.reason is not None and not self.lost:
                 self.cleared, self.reason = self._described(), None
             return False
+        self.lost = False
         began = status.protective_stop and not (self.reason is not None and self.protective)
         if began or self.reason is None:
             self.unlock_asked_at = None
         self.protective = status.protective_stop
         self.reason = status.reason or status.state.replace("_", " ")
         return began
+
+    def on_arm_lost(self, why: str | None) -> None:
+        """The arm node is gone or does not take the executor's setpoints yet (``why``), or
+        it takes them again (None): held, as for a hold its status names."""
+        if why is not None:
+            if self.reason is None:
+                self.unlock_asked_at = None  # a new hold: said once
+            if self.reason is None or self.lost:
+                self.protective, self.lost, self.reason = False, True, why
+            return
+        if self.lost:
+            self.cleared, self.reason, self.lost = self._described(), None, False
 
     def _described(self) -> str:
         return f"protective stop: {self.reason}" if self.protective else (

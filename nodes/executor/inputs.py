@@ -37,6 +37,10 @@ class ExecutorInputs(Protocol):
         """The arm node: the arm can move, or it is held (a protective stop, a stopped
         program, lost joint states, the slider at 0) and why."""
 
+    def on_arm_lost(self, why: str | None) -> None:
+        """The executor node's ``ArmWatch``: the arm node is gone, or back but not yet taking
+        the executor's setpoints (why), or taking them (None)."""
+
     def on_frame_taken(self, stamp_ns: int) -> None:
         """The camera: the frame the executor asked for was taken at ``stamp_ns``."""
 

@@ -56,6 +56,7 @@ from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
 from nodes.common.standard_msgs import stamp_seconds, tool_pose_values
 from nodes.common.transforms import tool_down_quaternion
+from nodes.executor.arm_watch import ArmWatch
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
@@ -106,6 +107,7 @@ class ExecutorNode(Node):
         self.gripper_control = LeaseClient(self, "gripper", "command", Float64,
                                            resend_s=math.inf)
         self._want_control = False  # the leases wanted at the last tick
+        self.arm_watch = ArmWatch.at_rate(self.config.rate_hz)
         self.status_pub = self.create_publisher(ExecutorStatusMsg, "/executor/status", LATCHED)
         self.create_subscription(PlanMsg, "/plan", self.on_plan, LATCHED)
         self.create_subscription(BlockPoseArray, "/blocks/detected", self.on_detection, RELIABLE)
@@ -162,6 +164,7 @@ class ExecutorNode(Node):
             return
         stamp = stamp_seconds(msg.header.stamp)
         with self.lock:
+            self.arm_watch.on_tcp()
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
 
     def on_planner_status(self, msg: PlannerStatusMsg) -> None:
@@ -195,6 +198,7 @@ class ExecutorNode(Node):
         if status is not None:
             self.arm_control.on_device_status(status.lease_holder)
             with self.lock:
+                self.arm_watch.on_status(status.lease_holder)
                 self.core.on_arm_status(status)
 
     def on_calibration(self, msg: DiagnosticStatus) -> None:
@@ -255,6 +259,8 @@ class ExecutorNode(Node):
     def on_tick(self) -> None:
         now = self.get_clock().now()
         with self.lock:
+            self.core.on_arm_lost(self.arm_watch.on_tick(self._want_control,
+                                                         self.arm_control.takes_my_commands))
             out = self.core.tick(now.nanoseconds * 1e-9)
             status = self.core.status()
         # a run holds the leases; so does any motion outside one (a respawned executor parks

@@ -13,6 +13,7 @@ assertions: the nodes rely on nothing that only the sim does.
 from __future__ import annotations
 
 import math
+import subprocess
 import threading
 import time
 
@@ -35,7 +36,7 @@ from nodes.common.transforms import tool_down_quaternion
 from nodes.executor.player import MAX_TICKS_PER_STEP
 from nodes.gripper.node import GripperNode
 from nodes.sim.config import HOME_JOINTS, PARK_POSITION
-from nodes.sim.node import SimNode
+from tests.helpers import script
 
 from .standin import DriverStandIn
 
@@ -47,13 +48,16 @@ BACKENDS = [pytest.param("standin", id="standin"),
 class Cell:
     """The driver (sim or stand-in), the arm and gripper nodes, and a setpoint stream."""
 
-    def __init__(self, ros, backend: str) -> None:
+    def __init__(self, ros, backend: str, driver_log) -> None:
         self.ros, self.backend = ros, backend
         sim_time = [Parameter("use_sim_time", value=True)]
-        if backend == "sim":
-            ros.add(SimNode(context=ros.context, parameter_overrides=[
-                Parameter("real_time_factor", value=1.0), Parameter("camera.rate_hz", value=0.0),
-                Parameter("protective_stop_unlock_after_s", value=0.5)]))
+        self.driver: subprocess.Popen | None = None
+        if backend == "sim":  # a process of its own, as a driver runs: its physics never
+            # waits on this process's threads (sharing one, the path ran 3-43 mm off in CI)
+            self.driver = subprocess.Popen(
+                [script("densepack-sim"), "--ros-args", "-p", "real_time_factor:=1.0",
+                 "-p", "camera.rate_hz:=0.0", "-p", "protective_stop_unlock_after_s:=0.5"],
+                stdout=driver_log, stderr=subprocess.STDOUT, text=True)
         else:
             self.standin = ros.add(DriverStandIn(HOME_JOINTS, object_width=BLOCK_SIZE,
                                                  context=ros.context))
@@ -66,7 +70,22 @@ class Cell:
         ros.probe.create_subscription(PoseStamped, "/arm/tcp_pose", self._on_tcp, 10)
         self.setpoints = ros.publisher("/arm/cartesian_setpoint", PoseStamped)
         self.gripper = ros.publisher("/gripper/command", Float64)
-        self.wait_status("ready", timeout=30)
+        try:
+            self.wait_status("ready", timeout=60)
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        """Stop the sim's process."""
+        if self.driver is None:
+            return
+        self.driver.terminate()
+        try:
+            self.driver.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            self.driver.kill()
+            self.driver.wait()
 
     def _on_clock(self, msg: Clock) -> None:
         self.now = stamp_seconds(msg.clock)
@@ -155,8 +174,15 @@ def _smooth(u: float) -> float:
 
 
 @pytest.fixture(params=BACKENDS)
-def cell(request, ros):
-    return Cell(ros, request.param)
+def cell(request, ros, tmp_path):
+    with open(tmp_path / "driver.log", "w+") as log:
+        cell = Cell(ros, request.param, log)
+        try:
+            yield cell
+        finally:
+            cell.close()
+            log.seek(0)
+            print(log.read()[-4000:])  # the sim's log: pytest shows it when a test failed
 
 
 def test_the_arm_node_tracks_a_cartesian_path_within_1_mm(cell):

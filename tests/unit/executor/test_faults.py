@@ -236,6 +236,27 @@ def test_an_arm_not_started_yet_is_waited_for_without_an_unlock_or_a_stop_counte
     assert core.state is State.DONE and core.report.metrics.get("protective_stops", 0) == 0
 
 
+def test_an_arm_node_lost_mid_descent_holds_the_script_then_backs_up_from_where_it_stands():
+    """The arm node killed on the way down (a chaos run): the script must not stream on, or
+    the node back chases the setpoints sent meanwhile into the blocks below."""
+    core, world = supervised_run_at("descend")
+    stopped_at = core.inbox.tcp
+    core.on_arm_lost("the arm node is silent (no /arm/tcp_pose for 0.5 s)")
+    assert all(core.tick(world.t_end + (k + 1) * DT).setpoint is None for k in range(100))
+    assert "the arm node is silent" in core.report.detail
+    core.on_arm_status(ArmStatus("ready"))  # the node back says it can move: not enough
+    assert core.tick(world.t_end + 101 * DT).setpoint is None
+    core.on_arm_lost(None)  # and takes the executor's setpoints again
+    world.t_end += 101 * DT
+    sent = len(world.setpoints)
+    world.run(lambda: len(world.setpoints) > sent)
+    assert world.setpoints[sent][2].distance_to(stopped_at) < 0.002  # no jump down the path
+    assert any("the arm node is silent" in line and "backing up and looking again" in line
+               for line in world.logs)
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
+    assert core.state is State.DONE and core.report.metrics.get("blocked_descents", 0) == 0
+
+
 def test_a_hold_mid_motion_backs_up_and_looks_without_reading_it_as_contact():
     core, world = supervised_run_at("descend")
     core.on_arm_status(ArmStatus("no_joint_states", "joint states stale for 0.5 s"))
