@@ -26,10 +26,11 @@ from typing import Any
 
 import rclpy
 import yaml
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.signals import SignalHandlerOptions
 
 from nodes.cell.respawn import Respawn, RespawnBook
+from nodes.common.executors import PatientExecutor
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
 
@@ -200,7 +201,7 @@ def run_in_process(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> 
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    executor = MultiThreadedExecutor(num_threads=max(4, 2 * len(launches)))
+    executor = PatientExecutor(num_threads=max(4, 2 * len(launches)))
     built = []
     code = 0
     try:

@@ -27,10 +27,10 @@ from typing import Any
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
+from nodes.common.executors import PatientExecutor
 from nodes.common.qos import RELIABLE
 
 _DOMAIN_LOCKS: list[Any] = []  # keep lock files open for the life of the process
@@ -81,7 +81,7 @@ class RosHarness:
         self.domain_id = domain_id
         self.context = Context()
         rclpy.init(context=self.context, domain_id=domain_id)
-        self.executor = MultiThreadedExecutor(num_threads=threads, context=self.context)
+        self.executor = PatientExecutor(num_threads=threads, context=self.context)
         self.probe = Node("harness_probe", context=self.context)
         self.executor.add_node(self.probe)
         self._nodes: list[Node] = [self.probe]
@@ -101,19 +101,6 @@ class RosHarness:
                 if not self.context.ok():
                     break
                 self._errors.append(err)
-            self._let_workers_start()
-
-    def _let_workers_start(self, limit_s: float = 0.01) -> None:
-        """Wait (at most ``limit_s``) until the worker threads have started the callbacks
-        handed to them. Jazzy's MultiThreadedExecutor yields a callback handed out but not yet
-        started again on its next wake-up, at once: the spinning thread then loops holding
-        the GIL the workers need to start it, and on 2 cores the node timers fell to 4-12 Hz
-        of 50 (a two-action fake-cell run took 35 s instead of 6)."""
-        deadline = time.monotonic() + limit_s
-        while time.monotonic() < deadline and any(
-                not (task.executing() or task.done())
-                for task in list(getattr(self.executor, "_futures", ()))):
-            time.sleep(0.0005)
 
     # --- nodes ----------------------------------------------------------------------------------
     def add(self, node: Node) -> Node:

@@ -27,11 +27,11 @@ from typing import Any
 import rclpy
 from rclpy.executors import (
     ExternalShutdownException,
-    MultiThreadedExecutor,
     SingleThreadedExecutor,
 )
 from rclpy.utilities import remove_ros_args
 
+from nodes.common.executors import PatientExecutor
 from nodes.common.params import describe_config
 
 
@@ -108,7 +108,7 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
         # rclpy's MultiThreadedExecutor polls its futures in Python on every wake-up: for a
         # node whose callbacks are all short, one thread costs a fraction of the CPU.
         executor = (SingleThreadedExecutor() if spec.threads == 1
-                    else MultiThreadedExecutor(num_threads=spec.threads))
+                    else PatientExecutor(num_threads=spec.threads))
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -34,7 +34,6 @@ from densepack_interfaces.action import Rearrange
 from densepack_interfaces.msg import GoalLayout
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 
 from msgs_py import BlockSet, MessageError, PlannerStatus
@@ -45,6 +44,7 @@ from msgs_py.ros import (
     rearrange_result_to_msg,
 )
 from msgs_py.tasks import RearrangeResult
+from nodes.common.executors import PatientExecutor
 from nodes.common.qos import LATCHED
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.core import ExecutorCore
@@ -79,7 +79,7 @@ class RearrangeServer:
             self.helper, Rearrange, "/rearrange", execute_callback=self._execute,
             goal_callback=self._on_goal, cancel_callback=self._on_cancel,
             callback_group=ReentrantCallbackGroup())
-        self.executor = MultiThreadedExecutor(num_threads=2, context=node.context)
+        self.executor = PatientExecutor(num_threads=2, context=node.context)
         self.executor.add_node(self.helper)
         self._thread = threading.Thread(target=self._spin, name="rearrange", daemon=True)
         self._thread.start()
