@@ -159,7 +159,7 @@ def status_is(state):
     return lambda msg: msg_codecs.executor_status_from_msg(msg).state == state
 
 
-def wait_status(ros, state, timeout=180):  # a bound on a hang, not a timing claim
+def wait_status(ros, state, timeout=60):  # a bound on a hang (a run takes about 6 s)
     msg = ros.wait_for_message("/executor/status", ExecutorStatusMsg, status_is(state),
                                timeout=timeout, qos=LATCHED)
     return msg_codecs.executor_status_from_msg(msg)
