@@ -63,16 +63,19 @@ def adopt(plan: Plan, belief: Belief, planner: PlannerLink, tries: Tries, report
 
 def start_plan(d: StartPlan, belief: Belief, planner: PlannerLink, tries: Tries,
                cfg: ExecutorConfig, report: Report) -> Decision:
-    """A plan is run only if it starts from the world we see now: one naming a block never
-    seen stops the run, one from another state is replanned."""
+    """A plan is run only if it starts from the world we see now: one naming a block not
+    seen (a tag a noisy frame dropped, or a plan for another scene) or from another state is
+    replanned from a new look, at most ``max_replans`` times."""
     if d.plan is not None:
         adopt(d.plan, belief, planner, tries, report)
     plan = belief.plan
     assert plan is not None
     unknown = sorted({a.block for a in plan.actions} - set(belief.perceived))
     if unknown and belief.perceived:
+        why = f"plan names block(s) {unknown} the camera has not seen"
+        report.log(f"plan {plan.plan_id}: {why}; replanning")
         planner.rejected.add(plan.plan_id)
-        return Stop(f"plan names block(s) {unknown} the camera has not seen", failed=True)
+        return Replan(why)
     start = ({b.id: b.pose for b in plan.scene.blocks} if plan.scene
              else dict(belief.perceived))
     off, missing = deviations(belief.perceived, start, cfg.pos_tolerance, cfg.yaw_tolerance)

@@ -255,8 +255,9 @@ def test_malformed_messages_on_every_subscribed_topic_do_not_kill_the_executor(r
 
 
 def test_executor_refuses_a_plan_with_an_unseen_block(ros):
-    ros.add(FakeCell(context=ros.context))
-    ros.add(ExecutorNode(context=ros.context, parameter_overrides=FAST))
+    ros.add(FakeCell(context=ros.context))  # no planner: no replan (each would look again)
+    ros.add(ExecutorNode(context=ros.context, parameter_overrides=[
+        *FAST, Parameter("max_replans", value=0)]))
     bad = Plan((PickPlace(9, Pose2D(0.6, 0.0), Pose2D(0.7, 0.1), 0),), plan_id="bad",
                scene=plan().scene)
     ros.publisher("/plan", PlanMsg, LATCHED).publish(msg_codecs.plan_to_msg(bad))
