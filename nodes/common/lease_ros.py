@@ -251,6 +251,14 @@ class LeaseClient:
                 return True
             return holder == self.node.get_fully_qualified_name() and self.keeper.connected
 
+    def inherited(self, holder: str) -> bool:
+        """The device names this node's name as its holder (``holder``) though this node never
+        connected a lease: a predecessor under the same name took it (an executor respawned
+        before the device saw the old one leave the graph). Until this node takes the lease
+        again, the device refuses its commands on the closed public topic."""
+        with self._lock:
+            return not self._was_connected and holder == self.node.get_fully_qualified_name()
+
     def publish(self, msg: Any) -> None:
         with self._lock:
             private = self._private if self.keeper.connected else None

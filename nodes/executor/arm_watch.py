@@ -13,6 +13,10 @@ stands.
 * Back: reporting again and, when the executor wants the arm, its status names the executor
   as the lease holder and the setpoints go on that lease's topic. A node that restarted
   holds no lease: until the executor took it again, setpoints would be refused or unheard.
+* Inherited: an executor that restarted finds the arm leased to its own name, by the
+  executor that died. The public topic is closed to it until it takes the lease again
+  (about a second): a script streamed meanwhile would run on unheard, and the arm would
+  jump to wherever it had got to. Held the same way, as if the arm had been lost.
 """
 
 from __future__ import annotations
@@ -43,9 +47,11 @@ class ArmWatch:
     def on_status(self, holder: str) -> None:
         self.holder = holder
 
-    def on_tick(self, wants_arm: bool, takes_my_commands: Callable[[str], bool]) -> str | None:
+    def on_tick(self, wants_arm: bool, takes_my_commands: Callable[[str], bool],
+                inherited: Callable[[str], bool] = lambda holder: False) -> str | None:
         """Why the arm cannot take the executor's setpoints at this tick, or None.
-        ``takes_my_commands(holder)``: the lease client's word on the holder a status named."""
+        ``takes_my_commands(holder)``: the lease client's word on the holder a status named;
+        ``inherited(holder)``: that holder is a predecessor under this executor's name."""
         if self._heard:
             self._quiet_ticks += 1
         if self._quiet_ticks > self.silent_ticks:
@@ -55,6 +61,9 @@ class ArmWatch:
         elif self.lost is not None and wants_arm and not takes_my_commands(self.holder):
             self.lost = (f"the arm node is back, its lease held by {self.holder or 'nobody'}: "
                          "taking it again")
+        elif wants_arm and inherited(self.holder):
+            self.lost = (f"the arm is leased to {self.holder}, an executor of this name that "
+                         "ended: taking the lease again")
         else:
             self.lost = None
         return self.lost

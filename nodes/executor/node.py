@@ -260,13 +260,16 @@ class ExecutorNode(Node):
         now = self.get_clock().now()
         with self.lock:
             self.core.on_arm_lost(self.arm_watch.on_tick(self._want_control,
-                                                         self.arm_control.takes_my_commands))
+                                                         self.arm_control.takes_my_commands,
+                                                         self.arm_control.inherited))
             out = self.core.tick(now.nanoseconds * 1e-9)
             status = self.core.status()
+            scripted = self.core.player.busy  # streaming, or held until the arm takes it
         # a run holds the leases; so does any motion outside one (a respawned executor parks
         # the arm before its goal comes back: the arm still holds the lease of the executor
-        # that died, under the same name, so the public topic stays closed to it)
-        commanding = out.setpoint is not None or out.gripper is not None
+        # that died, under the same name, so the public topic stays closed to it, and the
+        # park is held until the lease is taken again)
+        commanding = out.setpoint is not None or out.gripper is not None or scripted
         want = self.config.take_control and (status.state in CONTROL_STATES or commanding)
         self._want_control = want
         resends = self.gripper_control.resends

@@ -182,3 +182,22 @@ def test_the_holders_side_takes_the_lease_again_after_an_arm_node_restart(ros):
             run_until(lambda: not control.keeper.holds, "lost")
     assert any("lost" in line for line in lines)
     assert sum("lease taken" in line for line in lines) == 2
+
+
+def test_a_respawned_holder_sees_its_predecessors_lease_as_inherited_until_it_takes_it(ros, cell):
+    ros.add(Node("test_executor", context=ros.context))  # the predecessor, still on the graph
+    assert ask(ros, "arm", "/test_executor").granted
+    arm_status(ros, lambda m: m.lease_holder == "/test_executor")
+    successor = ros.add(Node("test_executor", context=ros.context))  # back under its name
+    control = LeaseClient(successor, "arm", "cartesian_setpoint", PoseStamped, retry_s=0.2)
+    assert control.inherited("/test_executor")
+    assert not control.inherited("") and not control.inherited("/other_executor")
+
+    def take() -> bool:
+        control.update(True)
+        return control.keeper.connected
+
+    wait_until(take, "the lease taken again")
+    control.update(True)
+    assert not control.inherited("/test_executor")
+    assert control.takes_my_commands("/test_executor")

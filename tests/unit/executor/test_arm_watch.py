@@ -62,3 +62,30 @@ def test_a_lost_arm_back_while_the_executor_wants_no_arm_is_taken_at_its_reports
 def test_the_silence_limit_follows_the_tick_rate():
     assert ArmWatch.at_rate(50.0).silent_ticks == 25
     assert ArmWatch.at_rate(1.0).silent_ticks == 2
+
+
+def test_an_arm_leased_to_a_predecessor_of_the_same_name_holds_until_the_lease_is_taken():
+    watch = ArmWatch(silent_ticks=3)
+    watch.on_tcp()
+    watch.on_status(ME)  # the executor that died still holds the lease, under our name
+    taken = False
+
+    def inherited(holder: str) -> bool:
+        return holder == ME and not taken
+
+    def anyone(holder: str) -> bool:  # never connected: the device is taken at its word
+        return True
+
+    assert "an executor of this name that ended" in watch.on_tick(True, anyone, inherited)
+    assert watch.on_tick(False, anyone, inherited) is None  # no motion wanted: nothing held
+    taken = True  # the respawned executor's lease is connected
+    watch.on_tcp()
+    assert watch.on_tick(True, mine, inherited) is None
+
+
+def test_a_lease_held_by_nobody_or_another_name_is_not_inherited():
+    watch = ArmWatch(silent_ticks=3)
+    watch.on_tcp()
+    for holder in ("", "/other_tool"):
+        watch.on_status(holder)
+        assert watch.on_tick(True, lambda h: True, lambda h: h == ME) is None
