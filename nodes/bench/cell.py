@@ -359,11 +359,21 @@ def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, 
         "look_pose_shares": [look_pose_share(m.get("looks") or {}) for m in runs],
         "wall_time_median_s": median("wall_time_s"),
         "wall_time_max_s": max(m["wall_time_s"] for m in runs),
+        "per_scene": [per_scene(m) for m in runs],
         "outcomes": [f"seed {m['seed']}: {m['outcome']}"
                      + (f" ({'; '.join(m['notes'])})" if m["notes"] else "")
                      + (f" [{m['last_error']}]" if m.get("last_error") else "")
                      for m in runs],
     }
+
+
+def per_scene(m: dict[str, Any]) -> dict[str, Any]:
+    """One scene's figures, so runs split by ``--first-seed`` add up exactly (medians and
+    maxima over all of them) and a rare failure or contact is found by its seed."""
+    return {key: m.get(key) for key in (
+        "seed", "success", "outcome", "actions_executed", "replans", "unintended_contacts",
+        "blocks_lost", "final_pos_err_max_m", "final_yaw_err_max_deg", "sim_time_s",
+        "wall_time_s")}
 
 
 def look_pose_share(looks: dict[str, float]) -> float | None:

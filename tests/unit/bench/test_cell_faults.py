@@ -15,6 +15,7 @@ from nodes.bench.cell import (
     calibration_off_args,
     free_spot_in,
     is_success,
+    summarise,
 )
 from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
@@ -95,3 +96,13 @@ def test_a_stray_gripper_command_succeeds_only_when_the_gripper_refused_and_name
     assert is_success(_metrics(fault="misfire", stray_refused=True))
     assert not is_success(_metrics(fault="misfire", stray_refused=False))  # handled late
     assert is_success(_metrics(stray_refused=None))  # any other kind: not asked
+
+
+def test_the_row_keeps_each_scene_so_runs_split_by_seed_add_up():
+    runs = [_metrics(seed=seed, success=True, notes=[], final_errors=[], actions_executed=11,
+                     replans=0, unintended_contacts=seed, sim_time_s=60.0 + seed,
+                     wall_time_s=50.0, looks={}) for seed in (30, 31)]
+    row = summarise(9, "none", runs)
+    assert [(s["seed"], s["unintended_contacts"], s["sim_time_s"]) for s in row["per_scene"]] \
+        == [(30, 30, 90.0), (31, 31, 91.0)]
+    assert row["unintended_contacts"] == 61
