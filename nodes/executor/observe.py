@@ -278,6 +278,15 @@ def move_on(camera: Camera, belief: Belief, cfg: ExecutorConfig) -> Enter | None
     return Enter(State.OBSERVING, Script(steps, JudgeOnArrival()))
 
 
+def judged_after(belief: Belief) -> str:
+    """What the look judges: the camera check's grips, an action, or a recovery made
+    before the plan's first action (a block let go where a protective stop left it)."""
+    actions_done = belief.index - belief.probes
+    if 0 < belief.index <= belief.probes:
+        return "after the camera check"
+    return f"after action {actions_done}" if actions_done > 0 else "before action 1"
+
+
 def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfig,
                 report: Report, pending: Plan | None) -> Decision:
     """After an action, a recovery or a stop: the world must be as expected. A block not
@@ -305,9 +314,7 @@ def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfi
     if off or newcomers:
         why = "; ".join([d.describe() for d in off[:3]]
                         + [f"block {b} appeared" for b in newcomers[:3]])
-        done = "the camera check" if 0 < belief.index <= belief.probes else \
-            f"action {belief.index - belief.probes}"
-        return Replan(f"after {done}: {why}")
+        return Replan(f"{judged_after(belief)}: {why}")
     belief.expected = dict(belief.perceived)
     if pending is not None:
         return StartPlan(pending)

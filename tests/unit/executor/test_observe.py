@@ -7,8 +7,10 @@ import itertools
 import pytest
 
 from msgs_py import BlockPose, Plan
+from nodes.executor.belief import Belief
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
+from nodes.executor.observe import judged_after
 from nodes.executor.states import State
 from tests.unit.executor.world import (
     CFG,
@@ -111,3 +113,11 @@ def test_an_empty_plan_for_a_reached_goal_is_verified_and_done():
     core.on_plan(Plan((), plan_id="empty", scene=scene(at_goal, GOAL)))
     world.run(lambda: core.state is State.DONE)
     assert core.report.metrics["final_pos_err_max_m"] == pytest.approx(0.0)
+
+
+def test_a_replan_names_what_the_look_judged():
+    assert judged_after(Belief(index=2, probes=2)) == "after the camera check"
+    assert judged_after(Belief(index=5, probes=2)) == "after action 3"
+    # a block let go where a protective stop left it, before the first action was done
+    assert judged_after(Belief(index=0, probes=0)) == "before action 1"
+    assert judged_after(Belief(index=2, probes=2)) != judged_after(Belief(index=2, probes=0))
