@@ -45,6 +45,10 @@ class PlannerLink:
     pending: Plan | None = None  #: came while the arm was busy: taken once it is done
     wants_frame: bool = False  #: the planner waits for a detection (to plan from)
     want_replan: bool = False  #: for the next tick's outputs
+    #: a look was made because the planner waited for a frame: the replan that follows it is
+    #: the same correction asked again (``frame_looks`` such since the last counted replan)
+    shown_frame: bool = False
+    frame_looks: int = 0
 
     def ask(self, now: float) -> None:
         self.asked_at = now
@@ -58,6 +62,7 @@ def adopt(plan: Plan, belief: Belief, planner: PlannerLink, tries: Tries, report
     tries.grasps = 0
     report.last_error = ""
     planner.pending = None
+    planner.shown_frame, planner.frame_looks = False, 0
     report.say(f"plan {plan.plan_id or '?'}: {len(plan.actions)} actions")
 
 
@@ -112,7 +117,18 @@ def add_camera_check(belief: Belief, cfg: ExecutorConfig, report: Report) -> Non
 def replan(d: Replan, belief: Belief, planner: PlannerLink, cfg: ExecutorConfig,
            report: Report, now: float) -> Decision:
     """Ask the planner for a plan from the perceived world (the current one will not be
-    taken again); after ``max_replans``, give up."""
+    taken again); after ``max_replans``, give up. After a look the planner waited for (it
+    refused to plan from a frame the arm covered), the correction is asked again, not
+    counted anew: at most ``detection_retries`` times in a row."""
+    shown, planner.shown_frame = planner.shown_frame, False
+    if shown and planner.frame_looks <= cfg.detection_retries:
+        report.detail = d.reason
+        report.log(f"asking again, from the frame the planner waited for: {d.reason}")
+        if belief.plan is not None and belief.plan.plan_id:
+            planner.rejected.add(belief.plan.plan_id)
+        planner.ask(now)
+        return Enter(State.REPLANNING)
+    planner.frame_looks = 0
     if planner.replans >= cfg.max_replans:
         return Stop(f"gave up after {planner.replans} replans; last: {d.reason}", failed=True)
     planner.replans += 1
@@ -132,6 +148,7 @@ def await_plan(belief: Belief, planner: PlannerLink, cfg: ExecutorConfig, report
         return StartPlan(planner.pending)
     if planner.wants_frame:
         planner.wants_frame = False
+        planner.shown_frame, planner.frame_looks = True, planner.frame_looks + 1
         report.log("the planner waits for a detection; looking again")
         return Observe(Purpose.RESUME, near=True)
     if planner.asked_at is not None and now - planner.asked_at > cfg.replan_timeout_s:

@@ -175,3 +175,57 @@ def test_a_planner_restarted_during_a_replan_is_shown_a_fresh_frame():
     world.run(lambda: core.report.metrics["observations"] > observations, max_t=10.0)
     assert any("planner waits for a detection; looking again" in line for line in world.logs)
     assert world.trigger_poses[-1].x == pytest.approx(WS.x_min - CFG.look_offset)  # look pose
+
+
+def test_a_replan_the_planner_refused_for_a_covered_frame_is_asked_again_not_counted_again():
+    """The planner refuses to plan from a frame the arm covers and waits for another: the
+    look it waited for asks the same correction again, and the count of corrections (which
+    ends the run at ``max_replans``) stays at one."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def nudge(actions_done):
+        if actions_done == 1:
+            p = world.blocks[1]
+            world.blocks[1] = Pose2D(p.x + 0.004, p.y, p.theta)
+
+    def replan():
+        if world.replan_requests == 1:  # the first ask: refused, the planner wants a frame
+            core.on_planner_waiting(True)
+            return None
+        blocks = [BlockPose(i, p.x, p.y, p.theta) for i, p in world.blocks.items()]
+        fix = PickPlace(1, world.blocks[1], GOAL[1], 0)
+        rest = two_action_plan("p2", blocks).actions[1:]
+        return Plan((fix, *rest), plan_id="p2", scene=scene(blocks, GOAL),
+                    params={"block_size": 0.0508})
+
+    world.disturb = nudge
+    world.on_replan = replan
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    assert world.replan_requests == 2
+    assert core.status().metrics["replans"] == 1
+    assert any("asking again, from the frame the planner waited for" in line
+               for line in world.logs)
+
+
+def test_a_planner_that_keeps_waiting_for_frames_still_ends_the_run():
+    core = ExecutorCore(dataclasses.replace(CFG, max_replans=2))
+    world = World(core, START)
+
+    def twist(actions_done):
+        if actions_done == 1:
+            p = world.blocks[1]
+            world.blocks[1] = Pose2D(p.x + 0.004, p.y, p.theta)
+
+    def refuse():
+        core.on_planner_waiting(True)
+
+    world.disturb = twist
+    world.on_replan = refuse
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state in (State.FAILED, State.STOPPED)
+              or core.status().state == "failed", max_t=600.0)
+    assert "gave up after 2 replans" in core.status().last_error
+    # each counted replan was asked again after at most detection_retries looks
+    assert world.replan_requests <= 3 * (CFG.detection_retries + 1)
