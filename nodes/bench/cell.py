@@ -154,7 +154,7 @@ class FaultInjector:
     def __call__(self, monitor: RunMonitor, wall: float) -> None:
         if self._restart_at is not None and wall >= self._restart_at:
             node = self.name.split("_")[0]
-            self.cell.start(node)
+            self.cell.start(node, again=True)
             self._restart_at = None
             self.note += f"; {node} restarted at {wall:.0f} s"
         if self.done:

@@ -29,7 +29,7 @@ import yaml
 from rclpy.executors import ExternalShutdownException
 from rclpy.signals import SignalHandlerOptions
 
-from nodes.cell.respawn import Respawn, RespawnBook
+from nodes.cell.respawn import Respawn, RespawnBook, respawn_env
 from nodes.common.executors import PatientExecutor
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
@@ -145,10 +145,10 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
     def request_stop(*_: Any) -> None:
         stop.set()
 
-    def start(launch: NodeLaunch) -> None:
+    def start(launch: NodeLaunch, again: bool = False) -> None:
         proc = subprocess.Popen(
             launch.command(extra_ros), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-            text=True, env=env, start_new_session=True,
+            text=True, env=respawn_env(env) if again else env, start_new_session=True,
         )
         procs[launch.name] = proc
         pump = threading.Thread(target=_pump, args=(launch.name, proc.stdout, lock), daemon=True)
@@ -167,7 +167,7 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
                 del procs[name]
                 print(f"[cell] {book.on_exit(name, proc.returncode, now)}", flush=True)
         for name in book.due(now):
-            start(by_name[name])
+            start(by_name[name], again=True)
         if book.fatal is not None or not (procs or book.due_at):
             break
         stop.wait(0.2)

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from nodes.cell.launch import NodeLaunch, load_cell
-from nodes.cell.respawn import RespawnBook
+from nodes.cell.respawn import RespawnBook, respawn_env
 from nodes.common.harness import allocate_domain_id
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
@@ -54,19 +54,21 @@ class CellRun:
         self.env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0",
                         **{LAUNCHER_PID_ENV: str(os.getpid())})
 
-    def start(self, name: str | None = None) -> None:
+    def start(self, name: str | None = None, again: bool = False) -> None:
+        """Start every node, or ``name``; ``again``: after its process died (``respawn_env``)."""
+        env = respawn_env(self.env) if again else self.env
         for launch in [self.launches[name]] if name else self.launches.values():
-            self.procs[launch.name] = self._spawn(launch.name, launch.command(self.extra))
+            self.procs[launch.name] = self._spawn(launch.name, launch.command(self.extra), env)
             self.killed.discard(launch.name)
 
     def attach(self, name: str, cmd: list[str]) -> subprocess.Popen:
         """Start a helper process beside the cell (a recorder): same environment and log,
         but not one of the cell's nodes, so its end is no crash and ``stop`` leaves it be."""
-        return self._spawn(name, cmd)
+        return self._spawn(name, cmd, self.env)
 
-    def _spawn(self, name: str, cmd: list[str]) -> subprocess.Popen:
+    def _spawn(self, name: str, cmd: list[str], env: dict[str, str]) -> subprocess.Popen:
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                text=True, env=self.env, start_new_session=True)
+                                text=True, env=env, start_new_session=True)
         pump = threading.Thread(target=self._pump, args=(name, proc), daemon=True)
         pump.start()
         self.pumps.append(pump)
@@ -100,7 +102,7 @@ class CellRun:
                 del self.procs[name]
                 self._log(f"[cell] {self.book.on_exit(name, proc.returncode, now)}\n")
         for name in self.book.due(now):
-            self.start(name)
+            self.start(name, again=True)
         return self.book.fatal
 
     def _log(self, line: str) -> None:

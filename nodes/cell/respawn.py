@@ -18,6 +18,19 @@ from typing import Any
 DEFAULT_DELAY_S = 2.0
 DEFAULT_MAX_RESPAWNS = 3
 
+#: Fast DDS's built-in transports for a node started again after its process died: UDP only.
+#: A SIGKILLed process leaves its shared-memory port behind; a chaos run's executor, back
+#: under the freed participant id, re-made that port while the other processes kept writing
+#: into the one they had open, and heard nothing for 8 minutes (not its goal, sent 26 times,
+#: nor the latched plan) while its own messages went out. Over UDP nothing is left to reuse.
+RESPAWN_TRANSPORTS = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+
+
+def respawn_env(env: dict[str, str]) -> dict[str, str]:
+    """The environment of a node started again: ``env`` with ``RESPAWN_TRANSPORTS`` (a
+    transport the user chose is kept)."""
+    return {**RESPAWN_TRANSPORTS, **env}
+
 
 @dataclass(frozen=True, slots=True)
 class Respawn:

@@ -10,7 +10,7 @@ import yaml
 
 from nodes.cell.launch import load_cell
 from nodes.cell.processes import CellRun
-from nodes.cell.respawn import Respawn, RespawnBook
+from nodes.cell.respawn import Respawn, RespawnBook, respawn_env
 from nodes.common.paths import config_path
 
 
@@ -71,9 +71,10 @@ def test_a_run_starts_a_crashed_node_again_and_reports_the_one_it_may_not(tmp_pa
     log = io.StringIO()
     run = CellRun(tmp_path / "scene.yaml", log, cell_file=str(cell_file))
     started: list[str] = []
-    monkeypatch.setattr(run, "start", lambda name=None: started.append(name))
+    monkeypatch.setattr(run, "start",
+                        lambda name=None, again=False: started.append(name) if again else None)
     run.procs = {"planner": FakeProc(-9), "sim": FakeProc(None)}
-    assert run.supervise() is None and started == ["planner"]
+    assert run.supervise() is None and started == ["planner"]  # started again: respawn_env
     assert "[cell] node planner exited (code -9); respawning in 0 s (1 of 1)" in log.getvalue()
     run.procs = {"planner": FakeProc(None), "sim": FakeProc(None)}
     run.killed.add("sim")  # killed on purpose (a fault injected): not the book's
@@ -81,3 +82,10 @@ def test_a_run_starts_a_crashed_node_again_and_reports_the_one_it_may_not(tmp_pa
     assert run.supervise() is None and started == ["planner"]
     run.procs["planner"] = FakeProc(-9)
     assert run.supervise() == "node planner exited (code -9); respawned 1 time(s) already"
+
+
+def test_a_node_started_again_talks_udp_only_unless_the_user_chose_a_transport():
+    assert respawn_env({"ROS_DOMAIN_ID": "7"}) == {
+        "ROS_DOMAIN_ID": "7", "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+    chosen = {"FASTDDS_BUILTIN_TRANSPORTS": "LARGE_DATA"}
+    assert respawn_env(chosen) == chosen
