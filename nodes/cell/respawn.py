@@ -19,10 +19,11 @@ DEFAULT_DELAY_S = 2.0
 DEFAULT_MAX_RESPAWNS = 3
 
 #: Fast DDS's built-in transports for a node started again after its process died: UDP only.
-#: A SIGKILLed process leaves its shared-memory port behind; a chaos run's executor, back
-#: under the freed participant id, re-made that port while the other processes kept writing
-#: into the one they had open, and heard nothing for 8 minutes (not its goal, sent 26 times,
-#: nor the latched plan) while its own messages went out. Over UDP nothing is left to reuse.
+#: A SIGKILLed process leaves its shared-memory port behind. In one chaos run an executor
+#: back under the dead one's participant id (its port) heard nothing for 8 minutes (not its
+#: goal, sent 26 times, nor the latched plan) while its own messages went out; the same run
+#: again heard everything, so the cause is inferred, not shown: over UDP nothing of the dead
+#: process is reused.
 RESPAWN_TRANSPORTS = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
 
 
