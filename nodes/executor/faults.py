@@ -23,6 +23,7 @@ from nodes.executor.config import ExecutorConfig
 from nodes.executor.decisions import (
     Decision,
     Enter,
+    Halt,
     Observe,
     Recovered,
     Script,
@@ -313,7 +314,12 @@ def after_arm_hold(why: str, protective: bool, state: State, belief: Belief, pla
     stands. A protective stop is read as contact, as a descent stopped by something below:
     back up, look, and plan from what the camera sees (a held block that stopped the arm on
     the table is let go there). Any other hold says nothing of what is below: back up and
-    look. A stop under way parks."""
+    look. A stop under way parks. With no run going (a park, or a block found in the fingers
+    carried out to be looked at), the script is dropped and the idle loop decides afresh:
+    a look for a recovery would judge a plan never started."""
+    if state is State.IDLE:
+        report.log(f"{why}: deciding again from where the arm stands")
+        return Halt(State.IDLE)
     if state is State.STOPPING:
         in_place = isinstance(player.then, Stopped) and player.then.in_place
         return Enter(State.STOPPING, Script(park_steps(cfg), Stopped(in_place)))

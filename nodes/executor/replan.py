@@ -118,10 +118,10 @@ def replan(d: Replan, belief: Belief, planner: PlannerLink, cfg: ExecutorConfig,
            report: Report, now: float) -> Decision:
     """Ask the planner for a plan from the perceived world (the current one will not be
     taken again); after ``max_replans``, give up. After a look the planner waited for (it
-    refused to plan from a frame the arm covered), the correction is asked again, not
-    counted anew: at most ``detection_retries`` times in a row."""
+    refused to plan from a frame the arm covered), the correction is asked again once, not
+    counted anew (a refusal the look did not cure, a block in the fingers hidden, counts)."""
     shown, planner.shown_frame = planner.shown_frame, False
-    if shown and planner.frame_looks <= cfg.detection_retries:
+    if shown and planner.frame_looks <= 1:
         report.detail = d.reason
         report.log(f"asking again, from the frame the planner waited for: {d.reason}")
         if belief.plan is not None and belief.plan.plan_id:

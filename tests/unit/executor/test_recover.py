@@ -133,3 +133,30 @@ def test_setting_apart_a_block_that_lies_under_the_other_tries_the_other_first()
     assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
     assert any("block 2 lies under another" in line for line in world.logs)
     assert core.state is State.RECOVERING, world.logs[-4:]
+
+
+def test_a_respawned_executor_held_until_its_lease_still_sets_the_held_block_down():
+    """A chaos run: the executor back after a kill mid-carry found the arm leased to its
+    dead predecessor, and its first script (a park) was held until the lease was its own.
+    Freed, it used to back up and look for a recovery, judged the latched plan it never
+    started (every block 'appeared'), and replanned against a planner that waits for the
+    block in the fingers to show, until it gave up with the block still held. The idle loop
+    now decides afresh: the block is looked at and set down."""
+    core = ExecutorCore(dataclasses.replace(CFG, auto_start=False))
+    world = World(core, [START[0]])  # block 2 is in the fingers, the arm stopped over the cell
+    core.on_tcp(ToolPose(0.75, 0.1, 0.12, 0.0))
+    world.run(lambda: core.player.busy)  # the start-up park, before the finger gap came
+    why = "the arm is leased to /executor, an executor of this name that ended"
+    core.on_arm_lost(why)
+    held_at = len(world.setpoints)
+    core.on_finger_gap(0.0508)
+    core.on_plan(two_action_plan())  # the latched plan
+    calls = iter(range(50))  # a second of ticks
+    world.run(lambda: next(calls, None) is None)
+    assert len(world.setpoints) == held_at  # nothing streamed while held
+    core.on_arm_lost(None)  # the lease is the respawned executor's own
+    world.run(lambda: any("setting block 2 down" in line for line in world.logs), max_t=120.0)
+    world.run(lambda: core.state is State.IDLE and core.belief.held is None, max_t=120.0)
+    assert core.belief.held is None and WS.contains_square(world.blocks[2], 0.0508)
+    assert any(f"{why}: deciding again from where the arm stands" in line for line in world.logs)
+    assert world.replan_requests == 0 and core.report.metrics["actions_executed"] == 0
