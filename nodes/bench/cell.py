@@ -47,7 +47,6 @@ from __future__ import annotations
 import functools
 import json
 import math
-import statistics
 import tempfile
 import time
 from collections.abc import Callable
@@ -67,6 +66,7 @@ from msgs_py import Scene, drivers, save_plan, save_scene
 from msgs_py.ros import disturbance_to_msg, sim_fault_to_msg
 from msgs_py.sim import Disturbance
 from msgs_py.sim import SimFault as SimFaultRecord
+from nodes.bench.cell_figures import is_success, summarise
 from nodes.bench.isolation import metrics_file, run_scene_isolated
 from nodes.cell.monitor import RunMonitor
 from nodes.cell.processes import CellRun, private_domain, private_ros_home, stop_cells_on_sigterm
@@ -91,8 +91,6 @@ CALIBRATION_TILT_DEG = 0.5
 STRAY_NAME = "/densepack_run"
 #: The block a person puts into the cell (a tag id no scene of the benchmark uses).
 ADDED_BLOCK = 40
-SUCCESS_POS_M = 0.003
-SUCCESS_YAW_DEG = 2.0
 
 COLUMNS = [
     "blocks", "fault", "scenes", "success_rate", "pos_err_median_m", "pos_err_max_m",
@@ -308,78 +306,6 @@ def run_scene(blocks: int, density: float, seed: int, fault: str, timeout: float
     finally:
         rclpy.try_shutdown(context=context)
     return metrics
-
-
-def is_success(m: dict[str, Any]) -> bool:
-    """Done with every block at its goal (3 mm / 2 deg by ground truth), none lost; for a
-    block taken away, the documented outcome: failed, naming that block, none lost; for a
-    stray gripper command, also refused and named by the gripper node."""
-    if m.get("stray_refused") is False:
-        return False
-    if m.get("removed") is not None:
-        return (m["outcome"] == "failed" and f"[{m['removed']}]" in (m.get("last_error") or "")
-                and not m["blocks_lost"])
-    return (m["outcome"] == "done" and m["final_pos_err_max_m"] is not None
-            and m["final_pos_err_max_m"] <= SUCCESS_POS_M
-            and m["final_yaw_err_max_deg"] <= SUCCESS_YAW_DEG
-            and not m["blocks_lost"])
-
-
-def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
-    errors = [e for m in runs for e in m["final_errors"]]
-    pos = [e["pos_err_m"] for e in errors]
-    yaw = [e["yaw_err_deg"] for e in errors]
-
-    def median(key: str, items=runs) -> float:
-        values = [m[key] for m in items if m.get(key) is not None]
-        return statistics.median(values) if values else float("nan")
-
-    def total(key: str) -> float:
-        return float(sum(m[key] or 0 for m in runs))
-
-    return {
-        "blocks": blocks,
-        "fault": fault,
-        "scenes": len(runs),
-        "success_rate": sum(m["success"] for m in runs) / len(runs),
-        "pos_err_median_m": statistics.median(pos) if pos else float("nan"),
-        "pos_err_max_m": max(pos) if pos else float("nan"),
-        "yaw_err_median_deg": statistics.median(yaw) if yaw else float("nan"),
-        "yaw_err_max_deg": max(yaw) if yaw else float("nan"),
-        "actions_executed_median": median("actions_executed"),
-        "actions_planned_median": median("actions_planned"),
-        "corrections": total("replans"),
-        "unintended_contacts": total("unintended_contacts"),
-        "blocks_lost": total("blocks_lost"),
-        "sim_time_median_s": median("sim_time_s"),
-        "sim_time_per_action_median_s": statistics.median(
-            [m["sim_time_s"] / m["actions_executed"] for m in runs
-             if m.get("sim_time_s") and m.get("actions_executed")] or [float("nan")]),
-        # per scene: the share of the looks after actions that needed the look pose
-        "look_pose_shares": [look_pose_share(m.get("looks") or {}) for m in runs],
-        "wall_time_median_s": median("wall_time_s"),
-        "wall_time_max_s": max(m["wall_time_s"] for m in runs),
-        "per_scene": [per_scene(m) for m in runs],
-        "outcomes": [f"seed {m['seed']}: {m['outcome']}"
-                     + (f" ({'; '.join(m['notes'])})" if m["notes"] else "")
-                     + (f" [{m['last_error']}]" if m.get("last_error") else "")
-                     for m in runs],
-    }
-
-
-def per_scene(m: dict[str, Any]) -> dict[str, Any]:
-    """One scene's figures, so runs split by ``--first-seed`` add up exactly (medians and
-    maxima over all of them) and a rare failure or contact is found by its seed."""
-    return {key: m.get(key) for key in (
-        "seed", "success", "outcome", "actions_executed", "replans", "unintended_contacts",
-        "blocks_lost", "final_pos_err_max_m", "final_yaw_err_max_deg", "sim_time_s",
-        "wall_time_s")}
-
-
-def look_pose_share(looks: dict[str, float]) -> float | None:
-    """Of the looks after actions, the share that needed the look pose (None: no look)."""
-    total = sum(looks.values())
-    return round(looks.get("from_look_pose", 0.0) / total, 3) if total else None
 
 
 def run(opts, scene_runner: Callable[..., dict[str, Any]] | None = None

@@ -36,7 +36,7 @@ from std_srvs.srv import Trigger
 
 from msgs_py import Scene, save_scene
 from nodes.bench import proc_stats
-from nodes.bench.cell import SUCCESS_POS_M, SUCCESS_YAW_DEG
+from nodes.bench.cell_figures import SUCCESS_POS_M, SUCCESS_YAW_DEG
 from nodes.bench.soak_figures import (
     flat_row,
     fresh_start_problems,

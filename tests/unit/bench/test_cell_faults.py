@@ -14,9 +14,8 @@ from nodes.bench.cell import (
     FAULTS,
     calibration_off_args,
     free_spot_in,
-    is_success,
-    summarise,
 )
+from nodes.bench.cell_figures import is_success, summarise
 from nodes.common.camera_model import load_camera_pose
 from nodes.common.paths import config_path
 from nodes.common.transforms import quaternion_to_matrix
@@ -86,7 +85,7 @@ def test_chaos_draws_a_node_and_a_moment_from_the_seed_and_fires_after_its_delay
 
 
 def test_the_look_pose_share_counts_the_looks_after_actions():
-    from nodes.bench.cell import look_pose_share
+    from nodes.bench.cell_figures import look_pose_share
 
     assert look_pose_share({"on_the_way": 3, "from_waypoint": 5, "from_look_pose": 2}) == 0.2
     assert look_pose_share({}) is None

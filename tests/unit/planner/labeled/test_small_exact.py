@@ -53,7 +53,9 @@ def test_pirs_runs_only_when_the_exact_plan_is_above_the_lower_bound(seed):
     out = plan_scene(instance("random", 6, 0.3, seed), CONFIG)
     assert out.ok, out.error
     at_bound = out.metrics["exact_actions"] <= out.lower_bound
-    assert ("pirs_actions" not in out.metrics) == at_bound
+    # pIRS ran whether or not it found a plan within exact_pirs_s (a loaded machine may not)
+    pirs_ran = "pirs_actions" in out.metrics or "pirs_failed" in out.metrics
+    assert pirs_ran != at_bound
     if at_bound:
         assert out.plan.planner == EXACT_NAME
 
