@@ -6,7 +6,11 @@ classified as arm / gripper / finger / block) and each block's pose and speeds.
 * **Unintended contact**: the robot (fingers, gripper body or arm) touching a block other
   than the one being manipulated (``manipulated``, learned from ``/executor/status``), or two
   blocks touching while one of them moves. One contact *episode* counts once: a pair that
-  stays in touch is not counted again until it has been apart for ``release_s``.
+  stays in touch is not counted again until it has been apart for ``release_s``. An episode
+  that began on the manipulated block stays intended while it lasts, whatever
+  ``/executor/status`` says meanwhile: the fingers still holding a block when the executor's
+  status stops naming it (a respawned executor that does not yet know what it holds) did
+  not touch it anew.
 * **Block lost**: a resting block off the table, with its centre more than ``lost_margin``
   outside the workspace, or tipped over (its tag face more than ``tip_angle`` from up).
   Each block is lost at most once.
@@ -53,6 +57,7 @@ class EventMonitor:
     events: list[dict[str, Any]] = field(default_factory=list)
     _active: dict[tuple, float] = field(default_factory=dict)  # pair -> last time seen
     _counted: set = field(default_factory=set)  # pairs counted in their current episode
+    _intended: set = field(default_factory=set)  # robot-block pairs whose episode began intended
     _lost: set = field(default_factory=set)
 
     def update(self, t: float, contacts: list[tuple[Party, Party]],
@@ -70,7 +75,9 @@ class EventMonitor:
             if key is None:
                 continue
             self._active[key] = t
-            if event is not None and key not in self._counted:
+            if event is None and key[0] == "robot":
+                self._intended.add(key)
+            if event is not None and key not in self._counted | self._intended:
                 self._counted.add(key)
                 self.unintended_contacts += 1
                 new.append({"t": round(t, 4), **event})
@@ -78,6 +85,7 @@ class EventMonitor:
             if t - seen > self.release_s:
                 del self._active[key]
                 self._counted.discard(key)
+                self._intended.discard(key)
         for block_id, (pos, quat, speed, spin) in blocks.items():
             if block_id in self._lost:
                 continue

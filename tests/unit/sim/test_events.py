@@ -41,6 +41,20 @@ def test_gripper_touching_the_manipulated_block_is_fine_any_other_counts_once():
     assert events[0]["type"] == "unintended_contact" and events[0]["block"] == 2
 
 
+def test_a_grip_that_began_on_the_manipulated_block_stays_intended_until_let_go():
+    m = monitor()
+    m.manipulated = 1
+    blocks = {1: resting()}
+    m.update(0.0, [(FINGER, block(1))], blocks)
+    m.manipulated = None  # the executor died; the one back does not name the held block yet
+    for k in range(1, 5):
+        m.update(0.01 * k, [(FINGER, block(1))], blocks)
+    assert m.unintended_contacts == 0
+    m.update(1.0, [], blocks)  # let go, apart long enough: a new touch is judged anew
+    m.update(1.01, [(FINGER, block(1))], blocks)
+    assert m.unintended_contacts == 1
+
+
 def test_blocks_touching_count_only_while_one_moves():
     m = monitor()
     still = {1: resting(), 2: resting(0.75)}
