@@ -122,18 +122,22 @@ def replan(d: Replan, belief: Belief, planner: PlannerLink, cfg: ExecutorConfig,
     counted anew (a refusal the look did not cure, a block in the fingers hidden, counts)."""
     shown, planner.shown_frame = planner.shown_frame, False
     if shown and planner.frame_looks <= 1:
-        report.detail = d.reason
-        report.log(f"asking again, from the frame the planner waited for: {d.reason}")
-        if belief.plan is not None and belief.plan.plan_id:
-            planner.rejected.add(belief.plan.plan_id)
-        planner.ask(now)
-        return Enter(State.REPLANNING)
+        return _ask(f"asking again, from the frame the planner waited for: {d.reason}",
+                    d, belief, planner, report, now)
     planner.frame_looks = 0
     if planner.replans >= cfg.max_replans:
         return Stop(f"gave up after {planner.replans} replans; last: {d.reason}", failed=True)
     planner.replans += 1
+    return _ask(f"replanning ({planner.replans}/{cfg.max_replans}): {d.reason}", d, belief,
+                planner, report, now)
+
+
+def _ask(line: str, d: Replan, belief: Belief, planner: PlannerLink, report: Report,
+         now: float) -> Decision:
+    """Ask the planner for a plan from the perceived world; the current plan is not taken
+    again."""
     report.detail = d.reason
-    report.log(f"replanning ({planner.replans}/{cfg.max_replans}): {d.reason}")
+    report.log(line)
     if belief.plan is not None and belief.plan.plan_id:
         planner.rejected.add(belief.plan.plan_id)
     planner.ask(now)

@@ -21,24 +21,29 @@ from tests.unit.executor.world import (
 )
 
 
+def nudge_block_1_after_action_1(world: World):
+    """A hand nudges block 1 by 4 mm once it was placed (action 1 done)."""
+    def nudge(actions_done):
+        if actions_done == 1:
+            p = world.blocks[1]
+            world.blocks[1] = Pose2D(p.x + 0.004, p.y, p.theta)
+    return nudge
+
+
+def corrected_plan(world: World) -> Plan:
+    """The planner's answer: block 1 back onto its goal, then the rest of the plan."""
+    blocks = [BlockPose(i, p.x, p.y, p.theta) for i, p in world.blocks.items()]
+    fix = PickPlace(1, world.blocks[1], GOAL[1], 0)
+    rest = two_action_plan("p2", blocks).actions[1:]
+    return Plan((fix, *rest), plan_id="p2", scene=scene(blocks, GOAL),
+                params={"block_size": 0.0508})
+
+
 def test_drift_beyond_tolerance_asks_for_a_replan_and_resumes_with_the_new_plan():
     core = ExecutorCore(CFG)
     world = World(core, START)
-
-    def nudge(actions_done):
-        if actions_done == 1:  # a hand nudges block 1 by 4 mm after it was placed
-            p = world.blocks[1]
-            world.blocks[1] = Pose2D(p.x + 0.004, p.y, p.theta)
-
-    def replan():
-        blocks = [BlockPose(i, p.x, p.y, p.theta) for i, p in world.blocks.items()]
-        fix = PickPlace(1, world.blocks[1], GOAL[1], 0)
-        rest = two_action_plan("p2", blocks).actions[1:]
-        return Plan((fix, *rest), plan_id="p2", scene=scene(blocks, GOAL),
-                    params={"block_size": 0.0508})
-
-    world.disturb = nudge
-    world.on_replan = replan
+    world.disturb = nudge_block_1_after_action_1(world)
+    world.on_replan = lambda: corrected_plan(world)
     core.on_plan(two_action_plan())
     world.run(lambda: core.state is State.DONE)
     assert world.replan_requests == 1
@@ -184,22 +189,13 @@ def test_a_replan_the_planner_refused_for_a_covered_frame_is_asked_again_not_cou
     core = ExecutorCore(CFG)
     world = World(core, START)
 
-    def nudge(actions_done):
-        if actions_done == 1:
-            p = world.blocks[1]
-            world.blocks[1] = Pose2D(p.x + 0.004, p.y, p.theta)
-
     def replan():
         if world.replan_requests == 1:  # the first ask: refused, the planner wants a frame
             core.on_planner_waiting(True)
             return None
-        blocks = [BlockPose(i, p.x, p.y, p.theta) for i, p in world.blocks.items()]
-        fix = PickPlace(1, world.blocks[1], GOAL[1], 0)
-        rest = two_action_plan("p2", blocks).actions[1:]
-        return Plan((fix, *rest), plan_id="p2", scene=scene(blocks, GOAL),
-                    params={"block_size": 0.0508})
+        return corrected_plan(world)
 
-    world.disturb = nudge
+    world.disturb = nudge_block_1_after_action_1(world)
     world.on_replan = replan
     core.on_plan(two_action_plan())
     world.run(lambda: core.state is State.DONE)
