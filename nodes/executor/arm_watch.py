@@ -62,8 +62,10 @@ class ArmWatch:
             self.lost = (f"the arm node is back, its lease held by {self.holder or 'nobody'}: "
                          "taking it again")
         elif wants_arm and inherited(self.holder):
-            self.lost = (f"the arm is leased to {self.holder}, an executor of this name that "
-                         "ended: taking the lease again")
+            # a predecessor of this name (an executor respawned), or this node's own lease
+            # granted a moment before its private topic connects (every first start)
+            self.lost = (f"the arm is leased to {self.holder}, this node's name, but not on "
+                         "this node's connected lease yet: taking it")
         else:
             self.lost = None
         return self.lost

@@ -76,7 +76,7 @@ def test_an_arm_leased_to_a_predecessor_of_the_same_name_holds_until_the_lease_i
     def anyone(holder: str) -> bool:  # never connected: the device is taken at its word
         return True
 
-    assert "an executor of this name that ended" in watch.on_tick(True, anyone, inherited)
+    assert "not on this node's connected lease yet" in watch.on_tick(True, anyone, inherited)
     assert watch.on_tick(False, anyone, inherited) is None  # no motion wanted: nothing held
     taken = True  # the respawned executor's lease is connected
     watch.on_tcp()

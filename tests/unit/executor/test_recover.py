@@ -146,7 +146,8 @@ def test_a_respawned_executor_held_until_its_lease_still_sets_the_held_block_dow
     world = World(core, [START[0]])  # block 2 is in the fingers, the arm stopped over the cell
     core.on_tcp(ToolPose(0.75, 0.1, 0.12, 0.0))
     world.run(lambda: core.player.busy)  # the start-up park, before the finger gap came
-    why = "the arm is leased to /executor, an executor of this name that ended"
+    why = ("the arm is leased to /executor, this node's name, but not on this node's "
+           "connected lease yet")
     core.on_arm_lost(why)
     held_at = len(world.setpoints)
     core.on_finger_gap(0.0508)
