@@ -59,12 +59,14 @@ def executor_status(state: State, belief: Belief, report: Report, replans: int
                     ) -> ExecutorStatus:
     """What ``/executor/status`` says: action k of n counts the plan's actions only (the
     camera check's re-grips show in the detail); the block is the one the running action
-    handles, or the one the fingers hold."""
+    or recovery handles, or the one the fingers hold."""
     b = belief
     total = len(b.plan.actions) if b.plan else 0
     block = None
     if b.plan and state is State.RUNNING and b.index < total:
         block = b.plan.actions[b.index].block
+    if state is State.RECOVERING and b.handling is not None:
+        block = b.handling
     running = state is State.RUNNING and b.index >= b.probes
     if b.held is not None and b.held.block is not None:
         block = b.held.block

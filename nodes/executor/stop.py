@@ -79,7 +79,7 @@ def failed_while_stopping(why: str, report: Report) -> Halt:
 
 def stopped(then: Stopped, belief: Belief, report: Report) -> Enter:
     """The stop's script ran: parked (or stopped over the block the fingers hold)."""
-    belief.held = None
+    belief.held = belief.handling = None
     state = State.FAILED if report.last_error else State.STOPPED
     where = "stopped over the block it holds" if then.in_place else "parked"
     report.log(f"arm {where}: {state.value}")

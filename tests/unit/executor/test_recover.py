@@ -8,9 +8,13 @@ import math
 import pytest
 
 from msgs_py import BlockPose, Pose2D
+from msgs_py.scene import square_half_extent
+from nodes.executor.belief import Belief
 from nodes.executor.core import ExecutorCore
 from nodes.executor.motion import ToolPose
-from nodes.executor.states import State
+from nodes.executor.recover import bring_in
+from nodes.executor.report import Report
+from nodes.executor.states import Purpose, State, Tries
 from tests.unit.executor.world import (
     CFG,
     GOAL,
@@ -110,6 +114,22 @@ def test_a_block_knocked_off_the_workspace_is_brought_back_with_wide_open_finger
     wide = 0.0508 + 2 * CFG.pick_clearance
     assert openings and max(openings) == pytest.approx(wide)  # room for a camera 1 cm off
     assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+    # the status names block 2 from the bring-in's first setpoint: the sim's contact
+    # monitor counts fingers touching a block the status does not name as unintended
+    recovering = [block for state, block in world.named if state == "recovering"]
+    assert recovering and set(recovering) == {2}
+
+
+@pytest.mark.parametrize("out_mm, brought_in", [(0.5, False), (2.0, True)])
+def test_a_block_seen_just_past_the_edge_is_inside_within_the_cameras_noise(out_mm, brought_in):
+    belief = Belief(plan=two_action_plan())
+    half = square_half_extent(0.0508, 0.3)
+    belief.perceived = {1: START[0].pose, 2: Pose2D(WS.x_max - half + out_mm * 1e-3, 0.2, 0.3)}
+    report = Report()
+    decision = bring_in(belief, Tries(), CFG, report, Purpose.AFTER_ACTION)
+    assert (decision is not None) == brought_in
+    if brought_in:
+        assert decision.state is State.RECOVERING and belief.handling == 2
 
 
 def test_setting_apart_a_block_that_lies_under_the_other_tries_the_other_first():

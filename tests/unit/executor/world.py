@@ -67,6 +67,8 @@ class World:
         self.disturb: Callable[[int], None] = lambda actions_done: None
         self.states: list[str] = []
         self.progress: list[tuple[str, int, int]] = []  # (state, action k, of n) as published
+        #: (state, the block the status names) at each setpoint, in order, without repeats
+        self.named: list[tuple[str, int | None]] = []
         self.gripper_commands: list[tuple[str, float]] = []  # (executor detail, opening)
         self.logs: list[str] = []
         self.placements = []  # what the executor reports it set down
@@ -93,7 +95,10 @@ class World:
             if out.placement is not None:
                 self.placements.append(out.placement)
             if out.setpoint is not None:
-                self.setpoints.append((t, self.core.status().state, out.setpoint))
+                status = self.core.status()
+                self.setpoints.append((t, status.state, out.setpoint))
+                if not self.named or self.named[-1] != (status.state, status.block):
+                    self.named.append((status.state, status.block))
                 if last is not None:
                     self.max_speed = max(self.max_speed, out.setpoint.distance_to(last) / DT)
                 last = out.setpoint
