@@ -107,7 +107,7 @@ class ExecutorCore:
                                             self._now),
             Finish: lambda d: replan.finish(d, self.report),
             Stop: lambda d: stop.stop_safely(d, self.belief, self.supervisor, cfg, self.report,
-                                             self._here),
+                                             self._here, self.inbox),
         }
         #: what the end of a script leads to
         self._on_end: dict[type, Callable[[Any], Decision | None]] = {

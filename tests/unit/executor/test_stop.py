@@ -12,6 +12,7 @@ from tests.unit.executor.world import (
     DT,
     GOAL,
     START,
+    Gripper,
     StallingGripper,
     World,
     two_action_plan,
@@ -51,6 +52,22 @@ def test_stop_while_carrying_sets_the_block_back_down_and_start_redoes_the_actio
     # block 1 is back where it was picked, the world matches plan p1's start again: resume
     assert world.blocks[1].distance_to(START[0].pose) < 1e-9
     assert replans == []
+
+
+def test_a_stop_as_the_grip_closes_sets_the_block_down_though_the_belief_had_not_recorded_it():
+    """The fingers close on block 1 and a stop comes before the grip step has recorded the
+    hold: the stop trusts the gripper, not the belief, and sets the block back down."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    gripper = Gripper(world)
+    core.on_plan(two_action_plan())
+    world.run(lambda: gripper.holding == 1 and core.belief.held is None)
+    core.request_stop()
+    world.run(lambda: core.state is State.STOPPED)
+    assert gripper.holding is None and core.player.commanded == CFG.park
+    assert world.blocks[1].distance_to(START[0].pose) < 1e-6
+    assert any("the fingers hold something the executor had not recorded: block 1" in line
+               for line in world.logs)
 
 
 def test_stop_between_actions_then_start_resumes_at_the_next_action():
