@@ -32,8 +32,8 @@ class Belief:
     perceived: dict[int, Pose2D] = field(default_factory=dict)
     held: Held | None = None
     picked_from: Pose2D | None = None  #: where the current action's block stood
-    #: the block a recovery's script moves (brought in, set apart, set down): the status
-    #: names it from the script's start, before the fingers close on it
+    #: the block a recovery's script picks up (brought in, set apart): the status names it
+    #: from the script's start, before the fingers close on it (a set-down names ``held``)
     handling: int | None = None
     camera_checked: bool = False  #: the start-of-run camera check was made (once a lifetime)
     #: blocks near where an action acted since the camera last saw them uncovered: what the

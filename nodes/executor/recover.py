@@ -74,7 +74,6 @@ def held_block(belief: Belief, look_for: Purpose, cfg: ExecutorConfig, report: R
         return Stop(f"holding block {block} and no free spot to set it down", failed=True)
     report.say(f"setting block {block} down at ({spot.x:.3f}, {spot.y:.3f})")
     belief.held = Held(block)
-    belief.handling = block
     belief.expected[block] = spot
     return Enter(State.RECOVERING, Script(set_down_steps(block, spot, tool.yaw, belief.geo, cfg),
                                           Recovered(look_for)))

@@ -66,7 +66,7 @@ def closed_on_something(supervisor: GraspSupervisor, inbox: Inbox, block_size: f
         return False
     newest = inbox.readings[-1] if inbox.readings else supervisor.last
     if newest is not None:
-        return newest.holds_object
+        return supervisor.holds_something(newest)
     return holds_block(inbox.finger_gap, block_size)
 
 

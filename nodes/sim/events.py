@@ -77,7 +77,7 @@ class EventMonitor:
             self._active[key] = t
             if event is None and key[0] == "robot":
                 self._intended.add(key)
-            if event is not None and key not in self._counted | self._intended:
+            if event is not None and key not in self._counted and key not in self._intended:
                 self._counted.add(key)
                 self.unintended_contacts += 1
                 new.append({"t": round(t, 4), **event})
