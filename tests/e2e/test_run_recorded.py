@@ -14,22 +14,13 @@ from densepack_interfaces.msg import ExecutorStatus
 
 from tests.helpers import REPO, read_mcap, tool
 
-pytestmark = [pytest.mark.slow, pytest.mark.ros]
+from .scenes import two_block_scene
 
-TWO_BLOCKS = """\
-version: 1
-workspace: {x_min: 0.45, x_max: 0.95, y_min: -0.35, y_max: 0.35}
-blocks:
-  - {id: 0, x: 0.52, y: -0.27, theta: 0.35}
-  - {id: 1, x: 0.66, y: -0.24, theta: -0.6}
-goal:
-  grid: {rows: 1, cols: 2, center: [0.70, -0.04], theta: 0.0, gap: 0.003}
-"""
+pytestmark = [pytest.mark.slow, pytest.mark.ros]
 
 
 def test_a_run_is_recorded_and_its_timeline_drawn(tmp_path):
-    scene = tmp_path / "two.yaml"
-    scene.write_text(TWO_BLOCKS)
+    scene = two_block_scene(tmp_path)
     report = tmp_path / "report"
     done = subprocess.run([*tool("run"), "--scene", str(scene), "--report", str(report),
                            "--quiet", "--timeout", "400"], cwd=REPO, capture_output=True,

@@ -19,7 +19,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.ros]
 
 def test_two_goals_on_one_cell_each_start_afresh_and_are_done(tmp_path):
     out = tmp_path / "soak.json"
-    done = subprocess.run([*tool("bench"), "soak", "--goals", "2", "--blocks", "4",
+    done = subprocess.run([*tool("bench"), "soak", "--goals", "2", "--blocks", "2",
                            "--density", "0.08", "--first-seed", "3", "--keep", str(tmp_path),
                            "--json", str(out)], cwd=REPO, capture_output=True, text=True,
                           timeout=1200)
