@@ -20,7 +20,8 @@ def pytest_configure(config: pytest.Config) -> None:
     # host, so parallel runs (and a cell a developer left running) never hear each other.
     from nodes.common.harness import allocate_domain_id
 
-    if "DENSEPACK_TEST_DOMAIN" not in os.environ:
+    # each pytest-xdist worker its own (a worker inherits the controller's environment)
+    if "DENSEPACK_TEST_DOMAIN" not in os.environ or "PYTEST_XDIST_WORKER" in os.environ:
         os.environ["DENSEPACK_TEST_DOMAIN"] = str(allocate_domain_id())
     os.environ["ROS_DOMAIN_ID"] = os.environ["DENSEPACK_TEST_DOMAIN"]
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"

@@ -28,7 +28,7 @@ from nodes.executor.decisions import (
 )
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import action_steps, expected_after, look_steps
-from nodes.executor.recovery import wide_opening
+from nodes.executor.recovery import tight_opening, wide_opening
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, Tries
 from nodes.executor.visibility import footprint, neighbours
@@ -65,11 +65,18 @@ def next_action(belief: Belief, cfg: ExecutorConfig, report: Report) -> Decision
 def pick_opening(belief: Belief, cfg: ExecutorConfig, action: Action, start: Pose2D
                  ) -> float | None:
     """The fingers open wider than the plan asks (``pick_clearance``) to go down around a
-    block whose neighbours leave room: a perception a centimetre off still grips it."""
+    block whose neighbours leave room: a perception a centimetre off still grips it; and
+    less (``release_clearance``) where the plan's opening would bring a finger within a
+    millimetre of a neighbour. None: the plan's opening."""
     if not isinstance(action, PickPlace) or belief.scene is None:
         return None
-    return wide_opening({**belief.expected, action.block: start}, action.block, action.grasp,
-                        belief.table(), belief.geo, cfg.pick_clearance)
+    around, table = {**belief.expected, action.block: start}, belief.table()
+    wide = wide_opening(around, action.block, action.grasp, table, belief.geo,
+                        cfg.pick_clearance)
+    if wide is not None:
+        return wide
+    return tight_opening(around, action.block, action.grasp, table, belief.geo,
+                         cfg.release_clearance)
 
 
 def looks_after(belief: Belief, cfg: ExecutorConfig) -> bool:

@@ -56,6 +56,12 @@ class ExecutorConfig:
         0.016, "finger clearance on each side when going down around a block to pick it, where "
         "no neighbour is in the way (else the plan's approach_clearance): room for a camera "
         "that is off by a centimetre until perception and arm are brought to agree", unit="m")
+    release_clearance: float = param(
+        0.004, "finger clearance on each side as the fingers open to let a placed block go (the "
+        "block is where they hold it: a few mm lift off cleanly, and the finger towards a "
+        "neighbour stays approach_clearance - this further from it than the plan checked); "
+        "also the narrower opening a pick goes down with where the plan's would bring a "
+        "finger within a millimetre of a neighbour", unit="m")
     gripper_settle_s: float = param(
         0.3, "wait after a gripper command when the gripper reports no finger positions "
         "(with them, the executor waits until the fingers reach the opening or stop)",
@@ -139,7 +145,7 @@ class ExecutorConfig:
             raise ValueError("parameters 'grasp_height' + 'approach_distance' must be below "
                              "'travel_height'")
         for name in ("speed", "accel", "descend_speed", "approach_speed", "push_speed",
-                     "push_accel", "yaw_rate", "yaw_accel"):
+                     "push_accel", "yaw_rate", "yaw_accel", "release_clearance"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter '{name}' must be > 0, got {getattr(self, name)}")
         if not self.in_safe_box(self.park):

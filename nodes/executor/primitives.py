@@ -92,10 +92,18 @@ def _pick_place_parts(
         Move(place, cfg.travel_limits, f"{tag}: carry", converge=False, **of),
         *settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower",
                      action.block),
-        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release", **of),
+        Grip(release_opening(geo, cfg), cfg.gripper_settle_s, f"{tag}: release", **of),
         Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r, **of),
     ]
     return approach, contact
+
+
+def release_opening(geo: GripperGeometry, cfg: ExecutorConfig) -> float:
+    """The opening that lets a set-down block go: ``release_clearance`` beside it (at most
+    the plan's approach clearance). The plan checks the fingers open to the approach
+    opening at the place pose, and may leave the outer face of one a hair from a placed
+    neighbour (a set-down short of a push line); opening less keeps it millimetres off."""
+    return geo.block_size + 2.0 * min(cfg.release_clearance, geo.approach_clearance)
 
 
 def settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str,

@@ -25,13 +25,16 @@ from msgs_py.footprint import (
 )
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
-from nodes.executor.primitives import GRASP_SYMMETRY, pick_place_steps
+from nodes.executor.primitives import GRASP_SYMMETRY, pick_place_steps, release_opening
 from nodes.executor.steps import Grip, Move, Rise, Step, of_block
 
 #: Finger gap (m) that means "holding a block": the pads stopped on a cube of the contract's
 #: BLOCK_SIZE (open for a grasp is the block + 2 x clearance, closed on nothing is 0, a push
 #: 20 mm). Other block sizes scale it.
 HOLDING_GAP = (0.040, 0.058)
+#: Room (m) a finger going down keeps from a neighbour before the pick opens less than the
+#: plan's opening: a few times the perception's error on a block's face.
+NEIGHBOUR_MARGIN = 0.001
 
 
 def holds_block(finger_gap: float | None, block_size: float = BLOCK_SIZE) -> bool:
@@ -145,6 +148,21 @@ def wide_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: Wo
     return wide.approach_opening
 
 
+def tight_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: Workspace,
+                  geo: GripperGeometry, clearance: float) -> float | None:
+    """The narrower opening that leaves ``clearance`` beside ``block`` where the plan's
+    fingers would go down within ``NEIGHBOUR_MARGIN`` of another block of ``around`` (the
+    plan allows a finger flush with a neighbour; the perception's fraction of a millimetre
+    then grazes it) and the narrower ones keep that margin; None (the plan's) otherwise."""
+    if clearance >= geo.approach_clearance or fingers_clear(
+            around, block, geo, grasp, table, NEIGHBOUR_MARGIN):
+        return None
+    tight = dataclasses.replace(geo, approach_clearance=clearance)
+    if not fingers_clear(around, block, tight, grasp, table, NEIGHBOUR_MARGIN):
+        return None
+    return tight.approach_opening
+
+
 def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,
                    cfg: ExecutorConfig) -> list[Step]:
     """Carry the block in the fingers above ``where``, set it down and let go."""
@@ -158,7 +176,7 @@ def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,
              cfg.vertical_limits, f"{tag}: lower", converge=False, **of),
         Move(above.with_z(cfg.grasp_height + cfg.place_drop), cfg.approach_limits,
              f"{tag}: lower (last cm)", **of),
-        Grip(geo.approach_opening, cfg.gripper_settle_s, f"{tag}: release", **of),
+        Grip(release_opening(geo, cfg), cfg.gripper_settle_s, f"{tag}: release", **of),
         Move(above, cfg.vertical_limits, f"{tag}: retreat", **of),
     ]
 

@@ -44,10 +44,8 @@ class PlannerConfig:
         "finger pad size across the closing axis (2F-85 pad is ~22 mm wide)", unit="m")
     finger_clearance: float = param(
         0.001,
-        "room kept beside each finger pad's sides and behind its outer face in the planner's "
-        "footprints (a pad placed flush with a neighbour grazes it when either stands a tenth "
-        "of a millimetre off, and the fingers opening to release a block sweep the outer face "
-        "out)",
+        "room kept beside each finger pad's sides in the planner's footprints (a pad placed "
+        "flush with a neighbour grazes it when either stands a tenth of a millimetre off)",
         unit="m")
     approach_clearance: float = param(
         cell.APPROACH_CLEARANCE,
@@ -210,11 +208,9 @@ class PlannerConfig:
 
     def gripper(self, block_size: float) -> GripperGeometry:
         """The footprint geometry the planner checks, for blocks of ``block_size``: the finger
-        pads ``finger_clearance`` wider on each side than ``finger_width`` and thicker by it
-        behind their outer face (the face towards a neighbour; the inner face stays where the
-        approach clearance puts it). A plan's params keep the pads' own size (the executor and
-        the validator use it)."""
-        return GripperGeometry(block_size, self.finger_thickness + self.finger_clearance,
+        pads ``finger_clearance`` wider on each side than ``finger_width``. A plan's params
+        keep the pads' own width (the executor and the validator use it)."""
+        return GripperGeometry(block_size, self.finger_thickness,
                                self.finger_width + 2.0 * self.finger_clearance,
                                self.approach_clearance, self.push_opening,
                                self.push_contact_depth)

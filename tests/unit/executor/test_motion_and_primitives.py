@@ -444,3 +444,15 @@ def test_braking_stops_a_move_on_its_line_within_the_deceleration():
     assert np.max(np.abs(np.diff(xs, 2))) / 0.005**2 <= 5.0 * 1.01  # within the deceleration
     assert xs[-1] - stream[0].x <= speed**2 / (2 * 5.0) + 0.01
     assert all(p.y == 0.0 and p.z == pytest.approx(0.3) for p in stream)
+
+
+def test_a_set_down_block_is_let_go_with_less_opening_than_the_pick_went_down_with():
+    """The plan checks the fingers open to the approach opening at the place pose, and may
+    leave one flush with a placed neighbour; the release opens only release_clearance, so
+    that finger stays millimetres off (16 blocks, seed 10: it brushed the neighbour)."""
+    action = PickPlace(1, Pose2D(0.55, -0.2, 0.3), Pose2D(0.70, 0.0, 0.0), 0)
+    grips = {s.label: s.opening for s in action_steps(action, action.from_, GEO, CFG)
+             if isinstance(s, Grip)}
+    assert grips["block 1: fingers open"] == pytest.approx(GEO.approach_opening)
+    assert grips["block 1: release"] == pytest.approx(GEO.block_size + 2 * CFG.release_clearance)
+    assert GEO.approach_clearance - CFG.release_clearance >= 0.003

@@ -48,19 +48,6 @@ def test_enclosed_goal_is_only_reached_by_a_push():
     assert len(plan.actions) == 2
 
 
-def test_the_open_fingers_keep_their_clearance_behind_their_outer_face():
-    # 16 blocks, seed 10 of the cell benchmark: a block set down beside a placed one (to be
-    # pushed home after) left the finger between them 0.13 mm from the placed block's face,
-    # and the finger opening to release brushed it. The pads' outer faces keep the clearance.
-    from nodes.sim.layout import random_sim_scene
-
-    plan = plan_ok(random_sim_scene(16, 0.10, seed=10), PlannerConfig())
-    margin = CONFIG.finger_clearance - 1e-6
-    thicker = dict(plan.params, finger_thickness=plan.params["finger_thickness"] + margin)
-    report = validate_plan(dataclasses.replace(plan, params=thicker))
-    assert report.ok, report.errors
-
-
 def test_grasp_blocked_at_start_and_other_grasp_blocked_at_goal_needs_a_regrasp():
     # yaw_exact: block 0 must keep yaw 0. At the start a neighbour sits on its +x side
     # (grasp 0 blocked), at the goal a neighbour sits on its +y side (grasp 1 blocked).
