@@ -32,6 +32,9 @@ from nodes.executor.steps import Grip, Move, Rise, Step, of_block
 #: BLOCK_SIZE (open for a grasp is the block + 2 x clearance, closed on nothing is 0, a push
 #: 20 mm). Other block sizes scale it.
 HOLDING_GAP = (0.040, 0.058)
+#: Room (m) fingers opened wider than the plan's, or standing where the plan did not check
+#: them (a recovery's grasp), keep from every other perceived block.
+FINGER_MARGIN = 0.004
 #: Room (m) a finger going down keeps from a neighbour before the pick opens less than the
 #: plan's opening: a few times the perception's error on a block's face.
 NEIGHBOUR_MARGIN = 0.001
@@ -110,7 +113,7 @@ def overlapping_ids(perceived: Mapping[int, Pose2D], block_size: float
 
 
 def fingers_clear(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry,
-                  grasp: int, table: Workspace, margin: float = 0.004) -> bool:
+                  grasp: int, table: Workspace, margin: float = FINGER_MARGIN) -> bool:
     """Whether the fingers of ``grasp`` (0: closing along the block's x, 1: along its y),
     open as ``geo`` says, touch no other perceived block (by ``margin``) and stand on the
     table ``table``."""
@@ -128,10 +131,23 @@ def fingers_clear(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeome
 
 
 def free_grasp(perceived: Mapping[int, Pose2D], block: int, geo: GripperGeometry,
-               table: Workspace, margin: float = 0.004) -> int | None:
+               table: Workspace, margin: float = FINGER_MARGIN) -> int | None:
     """A grasp whose fingers are clear (``fingers_clear``); None when neither is."""
     return next((g for g in (0, 1) if fingers_clear(perceived, block, geo, g, table, margin)),
                 None)
+
+
+def _opening_if_clear(around: Mapping[int, Pose2D], block: int, grasp: int, table: Workspace,
+                      geo: GripperGeometry, clearance: float, margin: float) -> float | None:
+    """The opening that leaves ``clearance`` beside ``block`` if it fits the gripper's stroke
+    and those fingers clear every other block of ``around`` by ``margin`` and stand on
+    ``table``; None otherwise."""
+    opened = dataclasses.replace(geo, approach_clearance=clearance)
+    if opened.approach_opening > GRIPPER_STROKE - 0.001:
+        return None
+    if not fingers_clear(around, block, opened, grasp, table, margin):
+        return None
+    return opened.approach_opening
 
 
 def wide_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: Workspace,
@@ -139,13 +155,8 @@ def wide_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: Wo
     """The opening that leaves ``pick_clearance`` beside ``block`` (a perception a
     centimetre off still grips it) if those fingers clear every other block of ``around``
     and stand on ``table``; None (the plan's opening) otherwise."""
-    wide = dataclasses.replace(geo, approach_clearance=max(pick_clearance,
-                                                           geo.approach_clearance))
-    if wide.approach_opening > GRIPPER_STROKE - 0.001:
-        return None
-    if not fingers_clear(around, block, wide, grasp, table):
-        return None
-    return wide.approach_opening
+    return _opening_if_clear(around, block, grasp, table, geo,
+                             max(pick_clearance, geo.approach_clearance), FINGER_MARGIN)
 
 
 def tight_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: Workspace,
@@ -157,10 +168,7 @@ def tight_opening(around: Mapping[int, Pose2D], block: int, grasp: int, table: W
     if clearance >= geo.approach_clearance or fingers_clear(
             around, block, geo, grasp, table, NEIGHBOUR_MARGIN):
         return None
-    tight = dataclasses.replace(geo, approach_clearance=clearance)
-    if not fingers_clear(around, block, tight, grasp, table, NEIGHBOUR_MARGIN):
-        return None
-    return tight.approach_opening
+    return _opening_if_clear(around, block, grasp, table, geo, clearance, NEIGHBOUR_MARGIN)
 
 
 def set_down_steps(block: int, where: Pose2D, yaw: float, geo: GripperGeometry,
