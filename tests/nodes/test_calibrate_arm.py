@@ -13,6 +13,7 @@ from rclpy.parameter import Parameter
 
 from msgs_py.camera import CameraPose
 from nodes.arm.node import ArmNode
+from nodes.calibration.arm_routine import DEFAULT_PLACEMENTS
 from nodes.calibration.cli import CalibrateNode
 from nodes.common.camera_model import CameraModel, load_camera_pose, save_camera_pose
 from nodes.common.transforms import quaternion_to_matrix, rotation_angle
@@ -21,10 +22,6 @@ from nodes.sim.config import CameraConfig
 from nodes.sim.node import SimNode
 
 pytestmark = pytest.mark.ros
-
-#: Five placements over the default workspace (x, y, theta).
-PLACEMENTS = [0.52, -0.27, 0.3, 0.52, 0.27, 0.9, 0.70, 0.0, 0.6, 0.88, -0.27, 0.7,
-              0.88, 0.27, -0.3]
 
 
 def table_error_mm(a: CameraModel, b: CameraModel) -> float:
@@ -38,6 +35,9 @@ def table_error_mm(a: CameraModel, b: CameraModel) -> float:
 
 
 def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_path):
+    """The routine as a user runs it: the nine default placements, one frame each. (With five,
+    one block settling half a millimetre from the TCP at release, seen once in CI, moved the
+    solved camera 0.47 mm on the table and 0.13 deg.)"""
     camera = CameraConfig()
     true = CameraModel.from_pose(camera.model().intrinsics,
                                  CameraPose(tuple(camera.position),
@@ -59,12 +59,12 @@ def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_p
     node = ros.add(CalibrateNode(context=ros.context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("mode", value="arm"),
         Parameter("calibration_file", value=str(start)),
-        Parameter("output_file", value=str(out)), Parameter("arm.placements", value=PLACEMENTS),
+        Parameter("output_file", value=str(out)),
         Parameter("arm.frames", value=1)]))
     assert node.done.wait(600.0)
     assert node.routine.error == ""
     result = node.solve()
-    assert result.n_frames == 5 and not result.dropped_tags
+    assert result.n_frames == len(DEFAULT_PLACEMENTS) // 3 and not result.dropped_tags
     assert result.rms_px < 0.3
     node.write(result)
     got = CameraModel.from_pose(true.intrinsics, load_camera_pose(out))
