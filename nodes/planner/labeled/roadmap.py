@@ -28,6 +28,11 @@ from nodes.planner.labeled.pirs import NoRoute, Route
 
 #: Sampling gives up after this many rounds of rejection.
 SAMPLE_ROUNDS = 8
+#: Lengths (m) of the short pushes ("nudges") a block hemmed in where it stands gets along each
+#: face normal: the push that slides it off its neighbours so that a grasp fits. Sampling
+#: alone puts a few poses on the start's push lines, anywhere up to ``push_max_distance``,
+#: and in a cramped scene none of them may be both reachable and graspable.
+NUDGE_LENGTHS = (0.008, 0.015, 0.025, 0.04)
 #: What the fixed blocks named in a failure are: not only placed ones (the search also holds
 #: the block whose way is being cleared, and the blocks of the clearing chain, in place).
 HELD = "that stay where they are for this move (placed, or held while their way is cleared)"
@@ -43,14 +48,34 @@ def sample_poses(ctx: PlanContext, obstacles: Obstacles, n: int, rng: np.random.
     for _ in range(SAMPLE_ROUNDS):
         if have >= n:
             break
-        cand = draw(rng, 2 * (n - have) + 4)
-        corners = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
-        ok = ctx.workspace.contains(corners) & ctx.reach.contains(cand[:, :2])
-        fixed, _ = obstacles.query(corners[:, None])
-        good = cand[ok & ~fixed]
+        good = _standing(ctx, obstacles, draw(rng, 2 * (n - have) + 4))
         found.append(good[: n - have])
         have += len(found[-1])
     return np.concatenate(found) if found else np.zeros((0, 3))
+
+
+def _standing(ctx: PlanContext, obstacles: Obstacles, cand: np.ndarray) -> np.ndarray:
+    """The poses of ``cand`` (k, 3) where the block lies in the workspace, clear of fixed
+    blocks, with its centre in the arm's reach."""
+    corners = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
+    ok = ctx.workspace.contains(corners) & ctx.reach.contains(cand[:, :2])
+    fixed, _ = obstacles.query(corners[:, None])
+    return cand[ok & ~fixed]
+
+
+def nudge_poses(ctx: PlanContext, obstacles: Obstacles, start: Pose2D) -> np.ndarray:
+    """Where the short pushes of ``NUDGE_LENGTHS`` along each face normal take a block that
+    has no clean grasp at ``start`` (each grasp's fingers hit a block or leave the table or
+    the reach); none for a block that has one (its pick needs no nudge)."""
+    here = np.array([[start.x, start.y, start.theta]])
+    grasps = grasp_checks(ctx, obstacles, here)
+    if (grasps.fingers_ok[0] & ~grasps.fingers_hit[0].any(-1)).any():
+        return np.zeros((0, 3))
+    normals = np.repeat(face_normals(start.theta), len(NUDGE_LENGTHS), axis=0)
+    lengths = np.tile(NUDGE_LENGTHS, 4)
+    cand = np.column_stack([start.x + lengths * normals[:, 0],
+                            start.y + lengths * normals[:, 1], np.full(len(lengths), start.theta)])
+    return _standing(ctx, obstacles, cand)
 
 
 def uniform_draw(ctx: PlanContext):
@@ -103,6 +128,7 @@ def plan_route(ctx: PlanContext, block: int, state: State, target: Pose2D,
         sample_poses(ctx, obstacles, n_goal, rng, line_draw(ctx, target, towards=True)),
         sample_poses(ctx, obstacles, n_start, rng, line_draw(ctx, start, towards=False)),
         sample_poses(ctx, obstacles, n_uniform, rng, uniform_draw(ctx)),
+        nudge_poses(ctx, obstacles, start),
     ])
     graph = _build_graph(ctx, nodes, obstacles)
     n_ends = len(ends)

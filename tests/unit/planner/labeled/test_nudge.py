@@ -1,0 +1,60 @@
+"""A block hemmed in where it stands is nudged: a short push slides it off the neighbours
+that block its grasp, then it is picked (roadmap.nudge_poses)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from msgs_py import BlockPose, Goal, GoalSlot, PickPlace, Pose2D, Push, Scene, Workspace
+from nodes.planner.config import PlannerConfig
+from nodes.planner.geometry.context import PlanContext
+from nodes.planner.labeled.roadmap import NUDGE_LENGTHS, nudge_poses, plan_route
+
+S = 0.0508
+C = (0.70, 0.0)
+TARGET = Pose2D(0.55, -0.15, 0.0)
+
+
+def hemmed_scene(neighbours: bool = True) -> Scene:
+    """Block 0 with a block 3 mm off each side face, both shifted up so they cover the top
+    5 mm of the side grasp's pads, and one 12 mm below it: no grasp is free and the only
+    push is down, by less than 12 mm; 8 mm down, the side grasp clears both."""
+    blocks = [BlockPose(0, *C, 0.0)]
+    if neighbours:
+        blocks += [BlockPose(1, C[0] + S + 0.003, C[1] + 0.006 + S / 2, 0.0),
+                   BlockPose(2, C[0] - S - 0.003, C[1] + 0.006 + S / 2, 0.0),
+                   BlockPose(3, C[0], C[1] - S - 0.012, 0.0)]
+    return Scene(Workspace(0.45, 0.95, -0.25, 0.25), S, tuple(blocks),
+                 Goal(slots=(GoalSlot(TARGET.x, TARGET.y, TARGET.theta, 0),)))
+
+
+def route_of_block_0(scene: Scene, seed: int):
+    ctx = PlanContext.for_scene(scene, PlannerConfig())
+    state = {b.id: b.pose for b in scene.blocks}
+    return plan_route(ctx, 0, state, TARGET, frozenset(), np.random.default_rng(seed))
+
+
+def test_a_hemmed_in_block_is_pushed_a_few_millimetres_clear_and_then_picked():
+    for seed in range(3):
+        route = route_of_block_0(hemmed_scene(), seed)
+        kinds = [type(a) for a in route.actions]
+        assert kinds == [Push, PickPlace], route
+        nudge = route.actions[0]
+        assert nudge.from_.distance_to(nudge.to) in NUDGE_LENGTHS
+        assert nudge.to.y < C[1]  # down, the one free way
+        assert route.blocked == ()
+
+
+def test_a_block_with_a_free_grasp_gets_no_nudge_poses():
+    scene = hemmed_scene(neighbours=False)
+    ctx = PlanContext.for_scene(scene, PlannerConfig())
+    state = {b.id: b.pose for b in scene.blocks}
+    obstacles = ctx.obstacles(state, exclude=(0,), movable=())
+    assert len(nudge_poses(ctx, obstacles, state[0])) == 0
+    hemmed = hemmed_scene()
+    ctx = PlanContext.for_scene(hemmed, PlannerConfig())
+    state = {b.id: b.pose for b in hemmed.blocks}
+    obstacles = ctx.obstacles(state, exclude=(0,), movable=())
+    poses = nudge_poses(ctx, obstacles, state[0])
+    assert 0 < len(poses) <= 4 * len(NUDGE_LENGTHS)
+    assert np.allclose(poses[:, 2], 0.0)  # a push keeps the yaw
