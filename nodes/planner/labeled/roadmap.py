@@ -28,7 +28,7 @@ from nodes.planner.labeled.pirs import NoRoute, Route
 
 #: Sampling gives up after this many rounds of rejection.
 SAMPLE_ROUNDS = 8
-#: Lengths (m) of the short pushes ("nudges") a block hemmed in where it stands gets along each
+#: Lengths (m) of the short pushes ("nudges") a block walled in where it stands gets along each
 #: face normal: the push that slides it off its neighbours so that a grasp fits. Sampling
 #: alone puts a few poses on the start's push lines, anywhere up to ``push_max_distance``,
 #: and in a cramped scene none of them may be both reachable and graspable.
@@ -65,11 +65,12 @@ def _standing(ctx: PlanContext, obstacles: Obstacles, cand: np.ndarray) -> np.nd
 
 def nudge_poses(ctx: PlanContext, obstacles: Obstacles, start: Pose2D) -> np.ndarray:
     """Where the short pushes of ``NUDGE_LENGTHS`` along each face normal take a block that
-    has no clean grasp at ``start`` (each grasp's fingers hit a block or leave the table or
-    the reach); none for a block that has one (its pick needs no nudge)."""
+    cannot be grasped at ``start`` whatever moves first (each grasp's fingers hit a fixed
+    block, or leave the table or the reach); none for a block that can: where only movable
+    blocks cover its grasp, pIRS clears them, and they often have to move anyway (nudging
+    instead cost random 9-block scenes at density 0.3 an action in 2 of 20)."""
     here = np.array([[start.x, start.y, start.theta]])
-    grasps = grasp_checks(ctx, obstacles, here)
-    if (grasps.fingers_ok[0] & ~grasps.fingers_hit[0].any(-1)).any():
+    if grasp_checks(ctx, obstacles, here).fingers_ok[0].any():
         return np.zeros((0, 3))
     normals = np.repeat(face_normals(start.theta), len(NUDGE_LENGTHS), axis=0)
     lengths = np.tile(NUDGE_LENGTHS, 4)
