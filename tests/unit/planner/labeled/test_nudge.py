@@ -28,9 +28,12 @@ def hemmed_scene(neighbours: bool = True) -> Scene:
                  Goal(slots=(GoalSlot(TARGET.x, TARGET.y, TARGET.theta, 0),)))
 
 
+def context_and_state(scene: Scene) -> tuple[PlanContext, dict[int, Pose2D]]:
+    return PlanContext.for_scene(scene, PlannerConfig()), {b.id: b.pose for b in scene.blocks}
+
+
 def route_of_block_0(scene: Scene, seed: int):
-    ctx = PlanContext.for_scene(scene, PlannerConfig())
-    state = {b.id: b.pose for b in scene.blocks}
+    ctx, state = context_and_state(scene)
     return plan_route(ctx, 0, state, TARGET, frozenset(), np.random.default_rng(seed))
 
 
@@ -46,8 +49,7 @@ def test_a_hemmed_in_block_is_pushed_a_few_millimetres_clear_and_then_picked():
 
 
 def nudges_of_block_0(scene: Scene, movable: tuple[int, ...] = ()) -> np.ndarray:
-    ctx = PlanContext.for_scene(scene, PlannerConfig())
-    state = {b.id: b.pose for b in scene.blocks}
+    ctx, state = context_and_state(scene)
     return nudge_poses(ctx, ctx.obstacles(state, exclude=(0,), movable=movable), state[0])
 
 
