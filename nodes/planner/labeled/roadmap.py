@@ -73,10 +73,15 @@ def nudge_poses(ctx: PlanContext, obstacles: Obstacles, start: Pose2D) -> np.nda
     if grasp_checks(ctx, obstacles, here).fingers_ok[0].any():
         return np.zeros((0, 3))
     normals = np.repeat(face_normals(start.theta), len(NUDGE_LENGTHS), axis=0)
-    lengths = np.tile(NUDGE_LENGTHS, 4)
-    cand = np.column_stack([start.x + lengths * normals[:, 0],
-                            start.y + lengths * normals[:, 1], np.full(len(lengths), start.theta)])
-    return _standing(ctx, obstacles, cand)
+    return _standing(ctx, obstacles, _along(start, normals, np.tile(NUDGE_LENGTHS, 4)))
+
+
+def _along(anchor: Pose2D, directions: np.ndarray, distances: np.ndarray) -> np.ndarray:
+    """Poses (k, 3) ``distances`` from ``anchor`` along ``directions`` (k, 2), at its yaw: the
+    poses a push of ``anchor``'s block reaches."""
+    return np.column_stack([anchor.x + distances * directions[:, 0],
+                            anchor.y + distances * directions[:, 1],
+                            np.full(len(distances), anchor.theta)])
 
 
 def uniform_draw(ctx: PlanContext):
@@ -97,9 +102,7 @@ def line_draw(ctx: PlanContext, anchor: Pose2D, towards: bool):
 
     def draw(rng: np.random.Generator, k: int) -> np.ndarray:
         d = normals[rng.integers(0, 4, k)]
-        dist = rng.uniform(lo, ctx.config.push_max_distance, k)
-        return np.column_stack([anchor.x + sign * dist * d[:, 0], anchor.y + sign * dist * d[:, 1],
-                                np.full(k, anchor.theta)])
+        return _along(anchor, sign * d, rng.uniform(lo, ctx.config.push_max_distance, k))
     return draw
 
 
