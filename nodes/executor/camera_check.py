@@ -28,9 +28,9 @@ from msgs_py import PickPlace, Pose2D, Workspace
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
-from nodes.executor.primitives import settle_onto, tool_yaw
+from nodes.executor.primitives import rise_then_shape, settle_onto, tool_yaw
 from nodes.executor.recovery import fingers_clear
-from nodes.executor.steps import Grip, Move, Rise, Step, of_block
+from nodes.executor.steps import Grip, Move, Step, of_block
 
 #: Closing along the block's x, then along its y: square to each other.
 PROBE_GRASPS = (0, 1)
@@ -71,8 +71,7 @@ def probe_steps(block: int, at: Pose2D, geo: GripperGeometry, cfg: ExecutorConfi
     r = cfg.blend_radius
     settle = cfg.gripper_settle_s
     return [
-        Grip(opening, 0.0, f"{tag}: open", wait=False, **of),
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r, **of),
+        *rise_then_shape(opening, cfg, tag, block),
         Move(over[0], cfg.travel_limits, f"{tag}: travel above", converge=False, **of),
         Grip(opening, settle, f"{tag}: fingers open", **of),
         *settle_onto(over[0], cfg.grasp_height, cfg, f"{tag}: descend", block),

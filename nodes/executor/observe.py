@@ -195,9 +195,9 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
     grips = [step for step in steps if isinstance(step, Grip)]
     moves = [step for step in steps if not isinstance(step, Grip | Rise)]  # risen already
     for blend in (WAYPOINT_BLEND_M, 0.0):
-        way = [*grips,
-               Rise(cfg.travel_height, cfg.vertical_limits, "look: rise",
-                    blend=cfg.blend_radius, activity=Activity.LOOK),
+        # the fingers are shaped once the tool is up (``primitives.rise_then_shape``)
+        way = [Rise(cfg.travel_height, cfg.vertical_limits, "look: rise",
+                    activity=Activity.LOOK), *grips,
                Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
                     blend=blend, activity=Activity.LOOK), *moves]
         samples = script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)

@@ -80,8 +80,7 @@ def _pick_place_parts(
     tag, of = f"block {action.block}", of_block(action.block)
     r = cfg.blend_radius
     approach: list[Step] = [
-        Grip(opening, 0.0, f"{tag}: open", wait=False, **of),
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=r, **of),
+        *rise_then_shape(opening, cfg, tag, action.block),
         Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False, **of),
     ]
     contact: list[Step] = [
@@ -96,6 +95,20 @@ def _pick_place_parts(
         Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r, **of),
     ]
     return approach, contact
+
+
+def rise_then_shape(opening: float, cfg: ExecutorConfig, tag: str, block: int) -> list[Step]:
+    """Up to travel height, then the fingers to ``opening`` while the tool travels on.
+
+    The rise is waited for (no blend into the travel): an action starts where the last one
+    let its block go, the arm still coming up behind its setpoints, and fingers shaped for
+    the next block there close on the block just released (a push's narrow opening gripped
+    it and carried it off, 25-block seeds 1 and 5) or open into its neighbours."""
+    of = of_block(block)
+    return [
+        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", **of),
+        Grip(opening, 0.0, f"{tag}: shape the fingers", wait=False, **of),
+    ]
 
 
 def release_opening(geo: GripperGeometry, cfg: ExecutorConfig) -> float:
@@ -147,9 +160,7 @@ def _push_parts(action: Push, start: Pose2D, geo: GripperGeometry, cfg: Executor
     back = end.offset(-dx * cfg.push_backoff, -dy * cfg.push_backoff)
     tag, of = f"block {action.block}", of_block(action.block)
     approach: list[Step] = [
-        Grip(geo.push_opening, 0.0, f"{tag}: close to push", wait=False, **of),
-        Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", blend=cfg.blend_radius,
-             **of),
+        *rise_then_shape(geo.push_opening, cfg, tag, action.block),
         Move(contact.with_z(cfg.travel_height), cfg.travel_limits, f"{tag}: travel behind",
              converge=False, **of),
     ]

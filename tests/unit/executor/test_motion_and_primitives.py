@@ -456,3 +456,31 @@ def test_a_set_down_block_is_let_go_with_less_opening_than_the_pick_went_down_wi
     assert grips["block 1: fingers open"] == pytest.approx(GEO.approach_opening)
     assert grips["block 1: release"] == pytest.approx(GEO.block_size + 2 * CFG.release_clearance)
     assert GEO.approach_clearance - CFG.release_clearance >= 0.003
+
+
+@pytest.mark.parametrize("lag", [0, 30])
+def test_the_next_action_shapes_the_fingers_only_once_the_tool_is_up(lag):
+    """Regression (25 blocks, seeds 1 and 5): a block set down on its push line, then pushed.
+    The push's script began while the lagging arm was still at the set-down, and its first
+    step closed the fingers to the push opening there: they gripped the block just released
+    and carried it off. Every finger command of the next script now waits until the measured
+    TCP stands at travel height."""
+    place = PickPlace(4, Pose2D(0.55, -0.2, 0.0), Pose2D(0.60, 0.10, 0.3), grasp=0)
+    then = push()
+    history = [HOME]
+    for steps in (action_steps(place, place.from_, GEO, CFG),
+                  action_steps(then, then.from_, GEO, CFG)):
+        runner = StepRunner(steps, history[-1], CFG.convergence_tol, CFG.convergence_timeout_s,
+                            CFG.in_safe_box)
+        t, measured_at_command = 0.0, []
+        while not runner.finished:
+            measured = history[max(0, len(history) - 1 - lag)]
+            tick = runner.update(t, measured)
+            assert not tick.error, tick.error
+            if tick.gripper is not None:
+                measured_at_command.append((tick.gripper, measured.z))
+            history.append(tick.setpoint)
+            t += 1.0 / RATE
+    shape = measured_at_command[0]  # the push's first finger command
+    assert shape[0] == pytest.approx(GEO.push_opening)
+    assert shape[1] >= CFG.travel_height - CFG.convergence_tol
