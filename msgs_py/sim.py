@@ -107,15 +107,21 @@ class SimEvents:
     blocks_lost: int = 0
     events: tuple[SimEvent, ...] = ()
     stamp_ns: int = 0
+    #: blocks off the table at ``stamp_ns`` (in the fingers): a run that ended with one left
+    #: it held
+    raised: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "events", tuple(self.events))
+        object.__setattr__(self, "raised", tuple(self.raised))
         integer("unintended_contacts", self.unintended_contacts, minimum=0)
         integer("blocks_lost", self.blocks_lost, minimum=0)
+        for k, block in enumerate(self.raised):
+            integer(f"raised[{k}]", block, minimum=0)
 
     def to_dict(self) -> dict[str, Any]:
         return {"unintended_contacts": self.unintended_contacts, "blocks_lost": self.blocks_lost,
-                "events": [e.to_dict() for e in self.events]}
+                "events": [e.to_dict() for e in self.events], "blocks_raised": list(self.raised)}
 
     @classmethod
     def from_summary(cls, summary: dict[str, Any], stamp_ns: int = 0) -> SimEvents:
@@ -123,7 +129,8 @@ class SimEvents:
         MessageError naming it (``events[3]``)."""
         events = tuple(SimEvent.from_dict(e, f"events[{k}]")
                        for k, e in enumerate(summary.get("events", ())))
-        return cls(summary["unintended_contacts"], summary["blocks_lost"], events, stamp_ns)
+        return cls(summary["unintended_contacts"], summary["blocks_lost"], events, stamp_ns,
+                   tuple(summary.get("blocks_raised", ())))
 
 
 @dataclass(frozen=True, slots=True)

@@ -95,15 +95,17 @@ def sim_events_to_msg(events: SimEvents) -> ifc.SimEvents:
         unintended_contacts=int_at("unintended_contacts", events.unintended_contacts, 0,
                                  UINT32_MAX),
         blocks_lost=int_at("blocks_lost", events.blocks_lost, 0, UINT32_MAX),
-        events=[sim_event_to_msg(e, f"events[{k}]") for k, e in enumerate(events.events)])
+        events=[sim_event_to_msg(e, f"events[{k}]") for k, e in enumerate(events.events)],
+        blocks_raised=[block_id_at(f"blocks_raised[{k}]", b) for k, b in enumerate(events.raised)])
     set_world_header(msg, events.stamp_ns)
     return msg
 
 
 def sim_events_from_msg(msg: ifc.SimEvents) -> SimEvents:
     events = tuple(sim_event_from_msg(e, f"events[{k}]") for k, e in enumerate(msg.events))
+    raised = tuple(block_id_at(f"blocks_raised[{k}]", b) for k, b in enumerate(msg.blocks_raised))
     return SimEvents(int(msg.unintended_contacts), int(msg.blocks_lost), events,
-                     stamp_to_ns(msg.header.stamp))
+                     stamp_to_ns(msg.header.stamp), raised)
 
 
 def disturbance_to_msg(disturbance: Disturbance) -> ifc.Disturbance:

@@ -95,7 +95,7 @@ ADDED_BLOCK = 40
 COLUMNS = [
     "blocks", "fault", "scenes", "success_rate", "pos_err_median_m", "pos_err_max_m",
     "yaw_err_median_deg", "yaw_err_max_deg", "actions_executed_median", "actions_planned_median",
-    "corrections", "unintended_contacts", "blocks_lost", "sim_time_median_s",
+    "corrections", "unintended_contacts", "blocks_lost", "blocks_held_at_end", "sim_time_median_s",
     "sim_time_per_action_median_s", "wall_time_median_s", "wall_time_max_s",
 ]
 

@@ -19,11 +19,16 @@ def is_success(m: dict[str, Any]) -> bool:
         return False
     if m.get("removed") is not None:
         return (m["outcome"] == "failed" and f"[{m['removed']}]" in (m.get("last_error") or "")
-                and not m["blocks_lost"])
+                and not m["blocks_lost"] and not held_at_end(m))
     return (m["outcome"] == "done" and m["final_pos_err_max_m"] is not None
             and m["final_pos_err_max_m"] <= SUCCESS_POS_M
             and m["final_yaw_err_max_deg"] <= SUCCESS_YAW_DEG
-            and not m["blocks_lost"])
+            and not m["blocks_lost"] and not held_at_end(m))
+
+
+def held_at_end(m: dict[str, Any]) -> int:
+    """How many blocks the run left off the table (in the fingers) when it ended."""
+    return len(m.get("blocks_raised_at_end") or ())
 
 
 def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -52,6 +57,7 @@ def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, 
         "corrections": total("replans"),
         "unintended_contacts": total("unintended_contacts"),
         "blocks_lost": total("blocks_lost"),
+        "blocks_held_at_end": sum(held_at_end(m) for m in runs),
         "sim_time_median_s": median("sim_time_s"),
         "sim_time_per_action_median_s": statistics.median(
             [m["sim_time_s"] / m["actions_executed"] for m in runs
@@ -73,8 +79,8 @@ def per_scene(m: dict[str, Any]) -> dict[str, Any]:
     maxima over all of them) and a rare failure or contact is found by its seed."""
     return {key: m.get(key) for key in (
         "seed", "success", "outcome", "actions_executed", "replans", "unintended_contacts",
-        "blocks_lost", "final_pos_err_max_m", "final_yaw_err_max_deg", "sim_time_s",
-        "wall_time_s")}
+        "blocks_lost", "blocks_raised_at_end", "final_pos_err_max_m", "final_yaw_err_max_deg",
+        "sim_time_s", "wall_time_s")}
 
 
 def look_pose_share(looks: dict[str, float]) -> float | None:

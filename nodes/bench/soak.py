@@ -36,7 +36,7 @@ from std_srvs.srv import Trigger
 
 from msgs_py import Scene, save_scene
 from nodes.bench import proc_stats
-from nodes.bench.cell_figures import SUCCESS_POS_M, SUCCESS_YAW_DEG
+from nodes.bench.cell_figures import SUCCESS_POS_M, SUCCESS_YAW_DEG, held_at_end
 from nodes.bench.soak_figures import (
     flat_row,
     fresh_start_problems,
@@ -187,7 +187,9 @@ def one_goal(soak: SoakCell, goal: int, seed: int, scene: Scene, before: dict[st
         "goal": goal, "seed": seed, "outcome": m["outcome"],
         "actions": counts.get("actions_executed"), "corrections": lifetime.get("corrections"),
         "worst_mm": _scaled(m["final_pos_err_max_m"], 1e3), "worst_deg": m["final_yaw_err_max_deg"],
-        "lost": m["blocks_lost"], "contacts": m["unintended_contacts"],
+        # a block the goal left in the fingers counts as lost (the sim never sees it rest)
+        "lost": None if m["blocks_lost"] is None else m["blocks_lost"] + held_at_end(m),
+        "contacts": m["unintended_contacts"],
         "sim_start_s": start_sim, "sim_s": monitor.sim_time - start_sim,
         "wall_s": result.wall_time_s,
         "inherited": "; ".join(inherited),

@@ -197,6 +197,8 @@ def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[st
         "wall_time_s": result.wall_time_s,
         "unintended_contacts": events.unintended_contacts if events else None,
         "blocks_lost": events.blocks_lost if events else None,
+        # blocks still off the table when the run ended: left in the fingers
+        "blocks_raised_at_end": list(events.raised) if events else None,
         "events": events.to_dict()["events"] if events else [],
         "sim_time_by_activity_s": {k[len("time_"):-2]: v for k, v in figures.items()
                                    if k.startswith("time_") and k.endswith("_s")},

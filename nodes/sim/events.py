@@ -14,6 +14,8 @@ classified as arm / gripper / finger / block) and each block's pose and speeds.
 * **Block lost**: a resting block off the table, with its centre more than ``lost_margin``
   outside the workspace, or tipped over (its tag face more than ``tip_angle`` from up).
   Each block is lost at most once.
+* **Raised**: a block whose centre stands more than a block size above the table, now (in
+  the fingers). Not an event: at the end of a run, a block still raised was left held.
 
 Counts are cumulative since the monitor was made (the world makes a new one on reset).
 """
@@ -59,6 +61,7 @@ class EventMonitor:
     _counted: set = field(default_factory=set)  # pairs counted in their current episode
     _intended: set = field(default_factory=set)  # robot-block pairs whose episode began intended
     _lost: set = field(default_factory=set)
+    _raised: set = field(default_factory=set)  # blocks off the table in the last observation
 
     def update(self, t: float, contacts: list[tuple[Party, Party]],
                blocks: dict[int, tuple[np.ndarray, np.ndarray, float, float]]) -> list[dict]:
@@ -86,6 +89,7 @@ class EventMonitor:
                 del self._active[key]
                 self._counted.discard(key)
                 self._intended.discard(key)
+        self._raised = {i for i, (pos, *_) in blocks.items() if float(pos[2]) > self.block_size}
         for block_id, (pos, quat, speed, spin) in blocks.items():
             if block_id in self._lost:
                 continue
@@ -139,4 +143,4 @@ class EventMonitor:
 
     def summary(self) -> dict[str, Any]:
         return {"unintended_contacts": self.unintended_contacts, "blocks_lost": self.blocks_lost,
-                "events": list(self.events)}
+                "events": list(self.events), "blocks_raised": sorted(self._raised)}

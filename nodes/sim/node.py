@@ -320,7 +320,8 @@ class SimNode(Node):
             self.get_logger().error(f"/sim/events: {err}; publishing the counts only",
                                     throttle_duration_sec=10.0)
             events = SimEventsRecord(summary["unintended_contacts"], summary["blocks_lost"],
-                                     stamp_ns=self.world.time_ns)
+                                     stamp_ns=self.world.time_ns,
+                                     raised=tuple(summary["blocks_raised"]))
         self.pub_events.publish(msg_codecs.sim_events_to_msg(events))
 
     def _publish_camera(self) -> int:

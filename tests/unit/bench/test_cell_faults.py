@@ -57,6 +57,14 @@ def test_success_needs_every_block_home_and_none_lost():
     assert not is_success(_metrics(outcome="failed"))
 
 
+def test_a_block_left_in_the_fingers_is_no_success_even_as_a_documented_failure():
+    assert is_success(_metrics(blocks_raised_at_end=[]))
+    assert not is_success(_metrics(blocks_raised_at_end=[4]))
+    named = "blocks [5] are no longer seen by the camera"
+    assert not is_success(_metrics(outcome="failed", removed=5, last_error=named,
+                                   blocks_raised_at_end=[5]))
+
+
 def test_a_block_taken_away_succeeds_only_as_a_failure_that_names_it():
     named = "blocks [5] are no longer seen by the camera"
     assert is_success(_metrics(outcome="failed", removed=5, last_error=named))

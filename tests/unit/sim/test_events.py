@@ -80,3 +80,15 @@ def test_lost_blocks_off_table_out_of_workspace_tipped_each_once():
     assert m.blocks_lost == 3
     summary = m.summary()
     assert summary["blocks_lost"] == 3 and summary["unintended_contacts"] == 0
+
+
+def test_a_block_held_up_is_raised_not_lost_and_no_longer_raised_once_set_down():
+    """A block still in the fingers when a run ends never rests on the table, so it is never
+    lost; the summary names it as raised (the benchmark counts it as left held)."""
+    m = monitor()
+    held = (np.array([0.7, 0.0, 0.3]), UP, 0.0, 0.0)  # at rest in the fingers at the park pose
+    m.update(0.0, [], {1: held, 2: resting()})
+    m.update(1.0, [], {1: held, 2: resting()})
+    assert m.blocks_lost == 0 and m.summary()["blocks_raised"] == [1]
+    m.update(2.0, [], {1: resting(0.7), 2: resting()})
+    assert m.summary()["blocks_raised"] == []

@@ -367,9 +367,10 @@ def sim_events(draw):
     return SimEvent(kind, time_s, block, reason=draw(st.text(chars, min_size=1, max_size=20)))
 
 
-@given(st.lists(sim_events(), max_size=6), counts, counts, stamps)
-def test_sim_events_round_trip_and_keep_the_monitors_form(events, contacts, lost, stamp):
-    record = SimEvents(contacts, lost, tuple(events), stamp)
+@given(st.lists(sim_events(), max_size=6), counts, counts, stamps,
+       st.lists(st.integers(0, 2**31 - 1), max_size=4))
+def test_sim_events_round_trip_and_keep_the_monitors_form(events, contacts, lost, stamp, raised):
+    record = SimEvents(contacts, lost, tuple(events), stamp, tuple(raised))
     roundtrip(record, msg_codecs.sim_events_to_msg, msg_codecs.sim_events_from_msg)
     assert SimEvents.from_summary(record.to_dict(), stamp) == record
 
@@ -448,7 +449,7 @@ def test_dispatch_covers_every_record():
                ArmStatus("ready", stream_time=2.5, lease_holder="/executor"),
                Disturbance(2, 0.01, -0.01),
                SimEvent("block_lost", 3.5, 4, reason="tipped over"),
-               SimEvents(0, 1, (SimEvent("block_lost", 3.5, 4, reason="tipped over"),), 9)]
+               SimEvents(0, 1, (SimEvent("block_lost", 3.5, 4, reason="tipped over"),), 9, (2,))]
     for record in records:
         assert msg_codecs.from_msg(wire(msg_codecs.to_msg(record))) == record
     with pytest.raises(TypeError):
