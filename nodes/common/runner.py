@@ -25,13 +25,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import rclpy
-from rclpy.executors import (
-    ExternalShutdownException,
-    SingleThreadedExecutor,
-)
+from rclpy.executors import ExternalShutdownException
 from rclpy.utilities import remove_ros_args
 
-from nodes.common.executors import PatientExecutor
+from nodes.common.executors import PatientExecutor, single_threaded, spin
 from nodes.common.params import describe_config
 
 
@@ -101,22 +98,24 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
 
     die_with_launcher()
     rclpy.init(args=ros_argv)  # installs SIGINT/SIGTERM handlers that shut the context down
-    node = None
+    node = executor = None
     code = 0
     try:
         node = spec.factory()
         # rclpy's MultiThreadedExecutor polls its futures in Python on every wake-up: for a
         # node whose callbacks are all short, one thread costs a fraction of the CPU.
-        executor = (SingleThreadedExecutor() if spec.threads == 1
+        executor = (single_threaded() if spec.threads == 1
                     else PatientExecutor(num_threads=spec.threads))
         executor.add_node(node)
-        executor.spin()
+        spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as err:  # a node that dies reports why and exits non-zero
         print(f"[{spec.name}] fatal: {type(err).__name__}: {err}", file=sys.stderr, flush=True)
         code = 1
     finally:
+        if executor is not None:
+            executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -1,17 +1,26 @@
 """PatientExecutor: a spin returns only once the workers have started the callbacks it handed
 them (Jazzy's MultiThreadedExecutor returns at once; its spinning thread then loops on them,
-holding the GIL the workers need to start them)."""
+holding the GIL the workers need to start them). A one-thread node process on the events
+executor stops cleanly on a signal."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+
 import pytest
 import rclpy
+from densepack_interfaces.msg import ExecutorStatus
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 
-from nodes.common.executors import PatientExecutor
+from nodes.common.executors import EXECUTOR_ENV, PatientExecutor, single_threaded
+from nodes.common.qos import LATCHED
+from tests.helpers import REPO
 
 pytestmark = pytest.mark.ros
 
@@ -45,3 +54,31 @@ def test_a_spin_returns_once_the_workers_have_started_what_it_handed_them():
     stock = spins_leaving_callbacks_unstarted(MultiThreadedExecutor)
     patient = spins_leaving_callbacks_unstarted(PatientExecutor)
     assert patient < SPINS // 10 < stock, (patient, stock)
+
+
+@pytest.mark.parametrize("choice", ["events", "single"])
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_one_thread_node_process_stops_cleanly_on_a_signal(ros, choice, sig):
+    """Regression: the events executor's own ``spin()`` ignores SIGTERM and SIGINT (the node
+    lived on until killed); spun one callback at a time, the node stops and exits 0, so
+    densepack-cell tells the stop from a crash."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "nodes.executor.node", "--ros-args", "--params-file",
+         str(REPO / "config" / "executor.yaml")],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env=dict(os.environ, PYTHONUNBUFFERED="1", **{EXECUTOR_ENV: choice}))
+    try:
+        # spinning: its timer has published a status
+        ros.wait_for_message("/executor/status", ExecutorStatus, timeout=60, qos=LATCHED)
+        proc.send_signal(sig)
+        code = proc.wait(timeout=20)
+        assert code == 0, proc.stdout.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
+def test_an_unknown_executor_choice_is_refused_by_name(monkeypatch):
+    monkeypatch.setenv(EXECUTOR_ENV, "fast")
+    with pytest.raises(ValueError, match=f"{EXECUTOR_ENV}='fast'"):
+        single_threaded()
