@@ -54,7 +54,7 @@ EVENTS_WAKE_S = 0.2
 def spin(executor: Executor) -> None:
     """Spin ``executor`` until the context shuts down (raises ``ExternalShutdownException``
     then, as ``Executor.spin`` does)."""
-    if isinstance(executor, Executor):
+    if isinstance(executor, Executor):  # the events executor is not an rclpy Executor
         executor.spin()
         return
     while True:

@@ -89,7 +89,7 @@ class EventMonitor:
                 del self._active[key]
                 self._counted.discard(key)
                 self._intended.discard(key)
-        self._raised = {i for i, (pos, *_) in blocks.items() if float(pos[2]) > self.block_size}
+        self._raised = {i for i, (pos, *_) in blocks.items() if self._off_table(float(pos[2]))}
         for block_id, (pos, quat, speed, spin) in blocks.items():
             if block_id in self._lost:
                 continue
@@ -130,7 +130,7 @@ class EventMonitor:
         if z < -self.block_size or not (x0 <= x <= x1 and y0 <= y <= y1):
             return "off the table"
         resting = speed < self.moving_speed and spin < self.moving_spin
-        if not resting or z > self.block_size:  # carried or in flight: judged when it rests
+        if not resting or self._off_table(z):  # carried or in flight: judged when it rests
             return ""
         qx, qy = float(quat[0]), float(quat[1])
         up_z = 1.0 - 2.0 * (qx * qx + qy * qy)  # world z of the block's z axis
@@ -140,6 +140,10 @@ class EventMonitor:
         if not (ws.x_min - m <= x <= ws.x_max + m and ws.y_min - m <= y <= ws.y_max + m):
             return "out of the workspace"
         return ""
+
+    def _off_table(self, z: float) -> bool:
+        """A block centre at height ``z`` (m) stands off the table: carried, or in flight."""
+        return z > self.block_size
 
     def summary(self) -> dict[str, Any]:
         return {"unintended_contacts": self.unintended_contacts, "blocks_lost": self.blocks_lost,
