@@ -19,6 +19,8 @@
   blocked path and off pending goals when those options are on (each dropped in turn if
   nothing fits).
 * ``wedged``: movable blocks whose last free grasp a placement would take away.
+* ``walls_in``: whether a placement leaves a goal slot unfillable (``Assembly.feasible``),
+  counting blocks that stand on their goal unplaced as filling it, where before it did not.
 """
 
 from __future__ import annotations
@@ -148,6 +150,24 @@ class CellPirs:
         free = (grasps.fingers_ok & ~on_block).any(-1)
         return [b for b, f, hit in zip(cand, free, on_block.any(-1), strict=True)
                 if not f and hit]
+
+    def standing(self, state: State, placed: Collection[int]) -> int:
+        """The slots filled where ``state`` stands: the placed blocks' and those of blocks on
+        their goal though not placed (cleared there), as an assembly bit mask."""
+        on_goal = (b for b in self.goals if b not in placed and self.at_goal(b, state))
+        return self.assembly.mask(itertools.chain(placed, on_goal))
+
+    def walls_in(self, before: State, after: State, placed: frozenset[int]) -> bool:
+        """Whether ``after`` leaves a slot no order can fill where ``before`` did not, with
+        every block on its goal counted as filling it (a block cleared onto its own goal is
+        not placed, but it stands there; once its neighbours are placed it may be neither
+        graspable nor pushable, and the slots behind it then walled in for good)."""
+        if not self.ctx.config.assembly_order:
+            return False
+        asm = self.assembly
+        if asm.feasible(self.standing(after, placed)):
+            return False
+        return asm.feasible(self.standing(before, placed))
 
     # --- where a blocking block goes ----------------------------------------------------------
     def clearing_poses(self, block: int, state: State, placed: frozenset[int],

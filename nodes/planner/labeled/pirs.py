@@ -26,6 +26,11 @@ pseudocode, all deliberate:
 * Among the first ``probe`` candidates, one whose route hits no movable block goes first.
 * A placement that would take the last free grasp of a movable block (``wedged``) clears
   that block first.
+* A placement that leaves a goal slot no order can fill any more, counting the blocks that
+  stand on their goal without being placed (a block cleared onto its own goal), where the
+  state before it left none (``walls_in``), is a dead end: the search backtracks at once
+  rather than finding out a dozen placements later that such a block, hemmed in where it
+  stands, can be neither moved nor left.
 
 Deterministic for a seed (the space draws from one generator in a fixed order). It stops
 with a failure when the budget runs out or a block's clearing nests deeper than ``max_depth``.
@@ -88,6 +93,11 @@ class PirsSpace(Protocol):
     def wedged(self, block: int, end: Any, state: State, movable: frozenset[int]
                ) -> list[int]:
         """Movable blocks that ``block`` standing at ``end`` would leave ungraspable."""
+
+    def walls_in(self, before: State, after: State, placed: frozenset[int]) -> bool:
+        """Whether ``after`` leaves a goal slot that can no longer be filled in any order,
+        where ``before`` left none (``placed``: the blocks placed before; the blocks standing
+        on their goal count as filling their slot either way)."""
 
     def join(self, a: Any, b: Any) -> Any:
         """The union of two regions."""
@@ -261,6 +271,10 @@ class Pirs:
                 placed: frozenset[int]) -> _Result | None:
         state2 = {**state, o: route.end}
         placed2 = placed | {o}
+        if self.space.walls_in(state, state2, placed):
+            self.fail(o, placed, "placing it would wall in a goal slot of a block still to "
+                      "place, with the blocks that stand on their goals")
+            return None
         self.stats.placed_max = max(self.stats.placed_max, len(placed2))
         if not remaining:
             return _Result(list(route.actions), state2)

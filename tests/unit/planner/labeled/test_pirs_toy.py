@@ -54,6 +54,9 @@ class Shelf:  # a pirs.PirsSpace
     def wedged(self, block, end, state, movable) -> list[int]:
         return []
 
+    def walls_in(self, before, after, placed) -> bool:
+        return False
+
     def join(self, a, b):
         return (a or frozenset()) | (b or frozenset())
 
