@@ -16,6 +16,12 @@ Example: a 3x3 grid with 3 mm gaps and one empty slot that is not the centre (a 
 scene): the blocks beside the hole that have the outside opposite it can leave, and then
 nothing else can (every block left has a block on two adjacent sides and at most one free
 side on each axis).
+
+``locked_blocks`` is the weaker, practical sibling: the blocks that cannot be *taken away*
+(picked where they stand, or nudged by a short push and then picked) even after every block
+that can has gone. No order exists in which a two-finger gripper could have set them down, so
+a scene generator must not make such a start; it is no proof of "no plan" (a chain of
+millimetre pushes might still free them), but a search that fails on such a start names them.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from msgs_py.footprint import face_normals
 from nodes.planner.geometry.context import PlanContext, State, at_pose
 from nodes.planner.geometry.obstacles import mask_to_int
 from nodes.planner.geometry.transfer import grasp_checks, push_checks
+from nodes.planner.labeled.roadmap import NUDGE_LENGTHS
 
 #: Length of the probing push (m): a push of any length sweeps at least this.
 PROBE_PUSH = 5e-3
@@ -59,9 +66,50 @@ def move_options(ctx: PlanContext, state: State) -> dict[int, list[int]]:
     return out
 
 
+def take_options(ctx: PlanContext, state: State) -> dict[int, list[int]]:
+    """Per block, the masks (as ints) of the other blocks each way of taking it away would
+    hit: one per grasp usable where it stands, one per nudge (a push of ``NUDGE_LENGTHS``
+    along a face normal, as the roadmap offers them) and grasp usable where it ends."""
+    ids = [b for b in ctx.ids if b in state]
+    if not ids:
+        return {}
+    obstacles = ctx.obstacles(state, exclude=(), movable=ids)
+    poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in ids])
+    grasps = grasp_checks(ctx, obstacles, poses)
+    per_block = 4 * len(NUDGE_LENGTHS)
+    starts = np.repeat(poses, per_block, axis=0)
+    normals = np.repeat(face_normals(poses[:, 2]).reshape(-1, 2), len(NUDGE_LENGTHS), axis=0)
+    lengths = np.tile(np.array(NUDGE_LENGTHS), 4 * len(ids))
+    push_ok, push_hit = push_checks(ctx, obstacles, starts, normals, lengths)
+    ends = np.column_stack([starts[:, :2] + normals * lengths[:, None], starts[:, 2]])
+    after = grasp_checks(ctx, obstacles, ends)
+    out: dict[int, list[int]] = {}
+    for k, b in enumerate(ids):
+        own = ~(1 << ctx.bit_of[b])
+        masks = [mask_to_int(grasps.fingers_hit[k, g]) & own
+                 for g in range(2) if grasps.fingers_ok[k, g]]
+        for j in range(k * per_block, (k + 1) * per_block):
+            if push_ok[j]:
+                masks += [(mask_to_int(push_hit[j]) | mask_to_int(after.fingers_hit[j, g]))
+                          & own for g in range(2) if after.fingers_ok[j, g]]
+        out[b] = masks
+    return out
+
+
 def frozen_blocks(ctx: PlanContext, state: State) -> list[int]:
     """The blocks of ``state`` that no sequence of actions can ever move (module docstring)."""
-    options = move_options(ctx, state)
+    return _peeled(ctx, move_options(ctx, state))
+
+
+def locked_blocks(ctx: PlanContext, state: State) -> list[int]:
+    """The blocks of ``state`` that cannot be taken away (picked, or nudged and picked) even
+    with every block that can gone (module docstring)."""
+    return _peeled(ctx, take_options(ctx, state))
+
+
+def _peeled(ctx: PlanContext, options: dict[int, list[int]]) -> list[int]:
+    """What is left after removing, round after round, every block with an option that hits
+    no block still standing."""
     standing = {b: 1 << ctx.bit_of[b] for b in options}
     left = sum(standing.values())
     while True:
@@ -75,6 +123,13 @@ def frozen_blocks(ctx: PlanContext, state: State) -> list[int]:
 #: How a failure names frozen blocks.
 FROZEN_WHY = (f"can never be freed: no grasp and no push of {PROBE_PUSH * 1e3:.0f} mm or more "
               "moves them even with every block that can move gone")
+
+
+#: How a failure names locked blocks.
+LOCKED_WHY = ("are locked where they start: no grasp fits them and no nudge of "
+              f"{NUDGE_LENGTHS[0] * 1e3:.0f}-{NUDGE_LENGTHS[-1] * 1e3:.0f} mm frees one, even "
+              "with every block that can be taken away gone (no gripper could have set them "
+              "down so)")
 
 
 def frozen_off_goal(ctx: PlanContext, start: State, goals: Mapping[int, Pose2D],

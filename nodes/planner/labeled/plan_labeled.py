@@ -25,7 +25,7 @@ from msgs_py.actions import Action
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import LowerBound, labeled_bound
 from nodes.planner.bounds.exact import ExactLimit, exact_plan
-from nodes.planner.bounds.frozen import FROZEN_WHY, frozen_off_goal
+from nodes.planner.bounds.frozen import FROZEN_WHY, LOCKED_WHY, frozen_off_goal, locked_blocks
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.geometry.context import PlanContext, at_pose
@@ -103,16 +103,22 @@ def plan_scene(scene: Scene, config: PlannerConfig, budget: Budget | None = None
             metrics["pirs_failed"] = 1.0
             return finish_plan(scene, config, exact, EXACT_NAME, budget, bound.value, metrics,
                                plan_id, pruned=True)
-        return failed(budget, bound.value, _why(failure, frozen, config), failure.block,
-                      metrics)
+        return failed(budget, bound.value, _why(failure, frozen, config, ctx, start),
+                      failure.block, metrics)
     return _improved(attempt, actions, exact, pirs_budget, budget, metrics, plan_id)
 
 
-def _why(failure: PlanningFailure, frozen: list[int], config: PlannerConfig) -> str:
+def _why(failure: PlanningFailure, frozen: list[int], config: PlannerConfig,
+         ctx: PlanContext, start: dict[int, Pose2D]) -> str:
+    """The search's failure, with the real cause first where the start has one: frozen
+    blocks (the short budget was this scene's own), else locked ones."""
     why = str(failure)
-    if frozen:  # the real cause first: the short budget was this scene's own
-        why = (f"blocks {frozen} are off their goal and {FROZEN_WHY}, so the search got "
-               f"only frozen_budget_s = {config.frozen_budget_s:g} s; it ended with {why}")
+    if frozen:
+        return (f"blocks {frozen} are off their goal and {FROZEN_WHY}, so the search got "
+                f"only frozen_budget_s = {config.frozen_budget_s:g} s; it ended with {why}")
+    locked = locked_blocks(ctx, start)
+    if locked:
+        return f"blocks {locked} {LOCKED_WHY}; the search ended with {why}"
     return why
 
 
