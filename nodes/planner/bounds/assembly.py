@@ -139,18 +139,38 @@ class Assembly:
     def _feasible(self, filled: int) -> bool:
         return not self.stuck(filled)
 
+    @cached_property
+    def _dependents(self) -> list[int]:
+        """Per slot c, the mask of the slots whose ways in pass over c: peeling c can make
+        only those enterable."""
+        dep = [0] * len(self.ids)
+        for d, ways in enumerate(self._enter):
+            over = 0
+            for m in ways:
+                over |= m
+            while over:
+                c = (over & -over).bit_length() - 1
+                over &= over - 1
+                dep[c] |= 1 << d
+        return dep
+
     def stuck(self, filled: int) -> list[int]:
-        """Empty slots (block ids) that no peeling order of the empty ones can fill."""
+        """Empty slots (block ids) that no peeling order of the empty ones can fill.
+
+        Peeling (filling in reverse) only frees room, so its closure does not depend on the
+        order: a worklist tests each empty slot once, and again only when a slot its ways in
+        pass over has been peeled (the planner's order asks this thousands of times per
+        plan; testing every slot each round was 40 % of a 49-block plan's time)."""
         empty = self.all & ~filled
         occupied = self.all
-        while empty:
-            peel = [c for c in range(len(self.ids))
-                    if empty >> c & 1 and self.enterable(c, occupied & ~(1 << c))]
-            if not peel:
-                break
-            for c in peel:
+        todo = empty
+        while todo:
+            c = (todo & -todo).bit_length() - 1
+            todo &= todo - 1
+            if empty >> c & 1 and self.enterable(c, occupied & ~(1 << c)):
                 empty &= ~(1 << c)
                 occupied &= ~(1 << c)
+                todo |= self._dependents[c] & empty
         return [self.ids[c] for c in range(len(self.ids)) if empty >> c & 1]
 
     def keepable(self, kept: int) -> int:
