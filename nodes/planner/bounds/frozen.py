@@ -33,7 +33,7 @@ import numpy as np
 from msgs_py import Pose2D
 from msgs_py.footprint import face_normals
 from nodes.planner.geometry.context import PlanContext, State, at_pose
-from nodes.planner.geometry.obstacles import mask_to_int
+from nodes.planner.geometry.obstacles import Obstacles, mask_to_int
 from nodes.planner.geometry.transfer import grasp_checks, push_checks
 from nodes.planner.labeled.roadmap import NUDGE_LENGTHS
 
@@ -41,41 +41,45 @@ from nodes.planner.labeled.roadmap import NUDGE_LENGTHS
 PROBE_PUSH = 5e-3
 
 
+def _grasp_options(ctx: PlanContext, state: State
+                   ) -> tuple[list[int], Obstacles, np.ndarray, list[list[int]]]:
+    """The blocks of ``state`` (ids), all of them as movable obstacles, their poses (K, 3),
+    and per block the masks (as ints) of the other blocks each grasp usable where it stands
+    would hit."""
+    ids = [b for b in ctx.ids if b in state]
+    obstacles = ctx.obstacles(state, exclude=(), movable=ids)
+    poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in ids]).reshape(-1, 3)
+    grasps = grasp_checks(ctx, obstacles, poses)
+    masks = [[mask_to_int(grasps.fingers_hit[k, g]) & ~(1 << ctx.bit_of[b])
+              for g in range(2) if grasps.fingers_ok[k, g]] for k, b in enumerate(ids)]
+    return ids, obstacles, poses, masks
+
+
 def move_options(ctx: PlanContext, state: State) -> dict[int, list[int]]:
     """Per block, the masks (as ints) of the other blocks each of its moves would hit: one
     per grasp whose fingers are otherwise usable, one per push direction otherwise feasible.
     A block can move when some mask holds no block that is still standing."""
-    ids = [b for b in ctx.ids if b in state]
+    ids, obstacles, poses, masks = _grasp_options(ctx, state)
     if not ids:
         return {}
-    obstacles = ctx.obstacles(state, exclude=(), movable=ids)
-    poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in ids])
-    grasps = grasp_checks(ctx, obstacles, poses)
     normals = face_normals(poses[:, 2]).reshape(-1, 2)  # (K*4, 2)
     starts = np.repeat(poses, 4, axis=0)
     push_ok, push_hit = push_checks(ctx, obstacles, starts, normals,
                                     np.full(len(starts), PROBE_PUSH))
-    out: dict[int, list[int]] = {}
     for k, b in enumerate(ids):
         own = ~(1 << ctx.bit_of[b])
-        masks = [mask_to_int(grasps.fingers_hit[k, g]) & own
-                 for g in range(2) if grasps.fingers_ok[k, g]]
-        masks += [mask_to_int(push_hit[4 * k + d]) & own
-                  for d in range(4) if push_ok[4 * k + d]]
-        out[b] = masks
-    return out
+        masks[k] += [mask_to_int(push_hit[4 * k + d]) & own
+                     for d in range(4) if push_ok[4 * k + d]]
+    return dict(zip(ids, masks, strict=True))
 
 
 def take_options(ctx: PlanContext, state: State) -> dict[int, list[int]]:
     """Per block, the masks (as ints) of the other blocks each way of taking it away would
     hit: one per grasp usable where it stands, one per nudge (a push of ``NUDGE_LENGTHS``
     along a face normal, as the roadmap offers them) and grasp usable where it ends."""
-    ids = [b for b in ctx.ids if b in state]
+    ids, obstacles, poses, masks = _grasp_options(ctx, state)
     if not ids:
         return {}
-    obstacles = ctx.obstacles(state, exclude=(), movable=ids)
-    poses = np.array([[state[b].x, state[b].y, state[b].theta] for b in ids])
-    grasps = grasp_checks(ctx, obstacles, poses)
     per_block = 4 * len(NUDGE_LENGTHS)
     starts = np.repeat(poses, per_block, axis=0)
     normals = np.repeat(face_normals(poses[:, 2]).reshape(-1, 2), len(NUDGE_LENGTHS), axis=0)
@@ -83,17 +87,13 @@ def take_options(ctx: PlanContext, state: State) -> dict[int, list[int]]:
     push_ok, push_hit = push_checks(ctx, obstacles, starts, normals, lengths)
     ends = np.column_stack([starts[:, :2] + normals * lengths[:, None], starts[:, 2]])
     after = grasp_checks(ctx, obstacles, ends)
-    out: dict[int, list[int]] = {}
     for k, b in enumerate(ids):
         own = ~(1 << ctx.bit_of[b])
-        masks = [mask_to_int(grasps.fingers_hit[k, g]) & own
-                 for g in range(2) if grasps.fingers_ok[k, g]]
         for j in range(k * per_block, (k + 1) * per_block):
             if push_ok[j]:
-                masks += [(mask_to_int(push_hit[j]) | mask_to_int(after.fingers_hit[j, g]))
-                          & own for g in range(2) if after.fingers_ok[j, g]]
-        out[b] = masks
-    return out
+                masks[k] += [(mask_to_int(push_hit[j]) | mask_to_int(after.fingers_hit[j, g]))
+                             & own for g in range(2) if after.fingers_ok[j, g]]
+    return dict(zip(ids, masks, strict=True))
 
 
 def frozen_blocks(ctx: PlanContext, state: State) -> list[int]:
