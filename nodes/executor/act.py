@@ -55,6 +55,7 @@ def next_action(belief: Belief, cfg: ExecutorConfig, report: Report) -> Decision
     else:
         steps = action_steps(action, start, belief.geo, cfg, opening, belief.turn_period)
     belief.picked_from, belief.handling = start, None  # a recovery's block is named no more
+    belief.moved_aside.discard(action.block)  # the plan takes it from where it stands now
     belief.expected[action.block] = end = expected_after(action, start, belief.geo)
     if looks_after(belief, cfg) and plan.scene is not None:
         steps += look_steps(cfg, plan.scene.workspace,

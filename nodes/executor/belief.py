@@ -39,6 +39,9 @@ class Belief:
     #: blocks near where an action acted since the camera last saw them uncovered: what the
     #: camera says of them now may be out of date
     unverified: set[int] = field(default_factory=set)
+    #: blocks a recovery picked up and set down elsewhere (set apart, brought in, set down
+    #: from the fingers) since the plan was adopted
+    moved_aside: set[int] = field(default_factory=set)
 
     def adopt(self, plan: Plan) -> None:
         """Take ``plan``, from its first action; its params give the gripper's geometry."""
@@ -46,6 +49,17 @@ class Belief:
         self.geo = GripperGeometry.from_params(plan.params)
         self.index = 0
         self.probes = 0
+        self.moved_aside = set()
+
+    def stranded(self) -> list[int]:
+        """Blocks a recovery moved that the plan moves no more: it would leave them where
+        the recovery put them, off their goal and maybe on a slot still to fill (the nudge
+        fault, seed 7: a block set apart after its placement, onto the next row's slot, met
+        by a later placement's fingers)."""
+        if self.plan is None:
+            return []
+        ahead = {a.block for a in self.plan.actions[self.index:]}
+        return sorted(self.moved_aside - ahead)
 
     @property
     def scene(self) -> Scene | None:

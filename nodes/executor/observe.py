@@ -290,8 +290,9 @@ def judged_after(belief: Belief) -> str:
 def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfig,
                 report: Report, pending: Plan | None) -> Decision:
     """After an action, a recovery or a stop: the world must be as expected. A block not
-    seen is looked for from the park pose, then the run stops; a block off, or a new one,
-    asks for a replan; else the next action (or the ``pending`` plan that came meanwhile, or
+    seen is looked for from the park pose, then the run stops; a block off, a new one, or
+    one a recovery moved that the plan moves no more (``Belief.stranded``) asks for a
+    replan; else the next action (or the ``pending`` plan that came meanwhile, or
     the goal)."""
     plan = belief.plan
     assert plan is not None
@@ -311,9 +312,12 @@ def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfi
     if not (off or newcomers) and tries.grasps > GRASP_RETRIES:
         return Replan(f"the grasp of block {plan.actions[belief.index].block} missed "
                       f"{tries.grasps} times")
-    if off or newcomers:
+    stranded = belief.stranded()
+    if off or newcomers or stranded:
         why = "; ".join([d.describe() for d in off[:3]]
-                        + [f"block {b} appeared" for b in newcomers[:3]])
+                        + [f"block {b} appeared" for b in newcomers[:3]]
+                        + [f"block {b} moved aside by a recovery after its last action in "
+                           "the plan" for b in stranded[:3]])
         return Replan(f"{judged_after(belief)}: {why}")
     belief.expected = dict(belief.perceived)
     if pending is not None:

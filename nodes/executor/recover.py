@@ -75,6 +75,7 @@ def held_block(belief: Belief, look_for: Purpose, cfg: ExecutorConfig, report: R
     report.say(f"setting block {block} down at ({spot.x:.3f}, {spot.y:.3f})")
     belief.held = Held(block)
     belief.expected[block] = spot
+    belief.moved_aside.add(block)
     return Enter(State.RECOVERING, Script(set_down_steps(block, spot, tool.yaw, belief.geo, cfg),
                                           Recovered(look_for)))
 
@@ -172,6 +173,7 @@ def move_aside(belief: Belief, cfg: ExecutorConfig, report: Report, look_for: Pu
     report.say(f"{why}, from ({at.x:.3f}, {at.y:.3f}) to ({spot.x:.3f}, {spot.y:.3f})")
     belief.picked_from = at
     belief.expected[block] = spot
+    belief.moved_aside.add(block)
     belief.handling = block
     opening = wide_opening(dict(around), block, grasp, table, belief.geo, cfg.pick_clearance)
     steps = bring_in_steps(block, at, spot, grasp, belief.geo, cfg, opening, belief.turn_period)

@@ -181,3 +181,34 @@ def test_a_respawned_executor_held_until_its_lease_still_sets_the_held_block_dow
     assert core.belief.held is None and WS.contains_square(world.blocks[2], 0.0508)
     assert any(f"{why}: deciding again from where the arm stands" in line for line in world.logs)
     assert world.replan_requests == 0 and core.report.metrics["actions_executed"] == 0
+
+
+def test_a_placed_block_knocked_onto_another_is_set_apart_and_the_run_replans():
+    """Regression (the nudge fault, seed 7): block 1, placed by the plan's first action, is
+    knocked onto block 2 and set apart. The plan moves it no more, so going on would leave it
+    where the recovery put it (there: on a slot still to fill, where a later placement came
+    down on it); a replan brings it back to its goal."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+
+    def knock(actions_done):
+        if actions_done == 1 and world.blocks[1].distance_to(GOAL[1]) < 1e-9:
+            p = world.blocks[2]  # block 1 shoved onto block 2, seen overlapping it by 1 cm
+            world.blocks[1] = Pose2D(p.x - 0.041, p.y, p.theta)
+
+    world.disturb = knock
+    world.on_replan = lambda: two_action_plan_from(world.blocks)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state is State.DONE)
+    assert any("blocks 1 and 2 overlap: setting block 1 apart" in line for line in world.logs)
+    assert world.replan_requests == 1
+    assert "moved aside by a recovery" in " ".join(world.logs)
+    assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+
+
+def two_action_plan_from(blocks):
+    """The plan the planner would send from ``blocks`` (block id -> pose): each block that is
+    off its goal moved there as in ``two_action_plan``."""
+    current = [BlockPose(b, p.x, p.y, p.theta) for b, p in sorted(blocks.items())]
+    return two_action_plan("p2", current)
