@@ -16,6 +16,8 @@ rest feasible, else a push-only one, sweeping the layout from -y to +y so that l
 
 from __future__ import annotations
 
+import functools
+import operator
 from functools import cache, cached_property
 
 import numpy as np
@@ -143,15 +145,13 @@ class Assembly:
     def _dependents(self) -> list[int]:
         """Per slot c, the mask of the slots whose ways in pass over c: peeling c can make
         only those enterable."""
-        dep = [0] * len(self.ids)
+        n = len(self.ids)
+        dep = [0] * n
         for d, ways in enumerate(self._enter):
-            over = 0
-            for m in ways:
-                over |= m
-            while over:
-                c = (over & -over).bit_length() - 1
-                over &= over - 1
-                dep[c] |= 1 << d
+            over = functools.reduce(operator.or_, ways, 0)
+            for c in range(n):
+                if over >> c & 1:
+                    dep[c] |= 1 << d
         return dep
 
     def stuck(self, filled: int) -> list[int]:
