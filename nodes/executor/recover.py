@@ -127,12 +127,7 @@ def set_apart(belief: Belief, tries: Tries, cfg: ExecutorConfig, report: Report,
     if tries.separations >= MAX_SEPARATIONS:
         return Stop(f"blocks {list(pairs[0])} still overlap after {tries.separations} tries "
                     "to set one of them apart", failed=True)
-    first, second = _which_first(belief, tries, pairs)
-    for block, partner in ((first, second), (second, first)):  # the other if no grasp
-        rest = {k: p for k, p in belief.perceived.items() if k != partner}
-        grasp = free_grasp(rest, block, belief.geo, belief.table())
-        if grasp is not None:
-            break
+    block, partner, grasp, rest = _apart_grasp(belief, *_which_first(belief, tries, pairs))
     at = belief.perceived[block]
     spot = free_spot({k: p for k, p in belief.perceived.items() if k != block},
                      plan.scene.workspace, belief.geo, at.theta, (at.x, at.y),
@@ -144,6 +139,25 @@ def set_apart(belief: Belief, tries: Tries, cfg: ExecutorConfig, report: Report,
     tries.setting_apart = block
     return move_aside(belief, cfg, report, look_for, block, spot, grasp, rest, belief.table(),
                       f"blocks {block} and {partner} overlap: setting block {block} apart")
+
+
+def _apart_grasp(belief: Belief, first: int, second: int
+                 ) -> tuple[int, int, int | None, dict[int, Pose2D]]:
+    """Which of an overlapping pair to pick up, how, and around which blocks: fingers that
+    clear the partner too first (a block leaning on its neighbour along x is gripped along
+    y, beside the neighbour, not with a finger coming down on it), for either block; then,
+    ignoring the partner (the overlap may leave no grasp beside it), the first, then the
+    other. The grasp is None when neither block has one."""
+    table = belief.table()
+    without = {b: {k: p for k, p in belief.perceived.items() if k != other}
+               for b, other in ((first, second), (second, first))}
+    tries = [(b, belief.perceived) for b in (first, second)] + [
+        (b, without[b]) for b in (first, second)]
+    for block, around in tries:
+        grasp = free_grasp(around, block, belief.geo, table)
+        if grasp is not None:
+            return block, first + second - block, grasp, around
+    return second, first, None, without[second]
 
 
 def _which_first(belief: Belief, tries: Tries, pairs: list[tuple[int, int]]

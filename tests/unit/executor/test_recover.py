@@ -98,6 +98,36 @@ def test_a_block_knocked_onto_another_is_set_apart_and_the_plan_goes_on():
     assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
 
 
+def test_a_block_leaning_on_its_neighbour_is_gripped_across_the_lean():
+    """Regression (the knock fault, seed 7): block 2, knocked against block 1, leans on it
+    and is seen overlapping it along x. Setting it apart with the fingers closing along x
+    brought one finger down on block 1 (a protective stop, read as "block 2 lies under
+    another", then the same on block 1 and the run given up); fingers closing along y pass
+    beside block 1."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    leaning = Pose2D(GOAL[1].x + 0.041, GOAL[1].y, 0.0)
+    toward_partner = math.atan2(GOAL[1].y - leaning.y, GOAL[1].x - leaning.x)
+
+    def knock(actions_done):
+        if actions_done == 1 and world.blocks[2] != leaning and core.belief.plan.plan_id == "p1":
+            world.blocks[2] = leaning
+
+    def floor(tool):  # a finger over block 1 stops the descent on its top face
+        over_leaning = math.hypot(tool.x - leaning.x, tool.y - leaning.y) < 0.01
+        across_partner = abs(math.cos(tool.yaw - toward_partner)) > 0.7
+        return 0.06 if over_leaning and across_partner else 0.0
+
+    world.disturb = knock
+    world.floor = floor
+    world.on_replan = lambda: two_action_plan_from(world.blocks)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
+    assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
+    assert not any("lies under another" in line for line in world.logs), world.logs
+    assert core.state is State.DONE
+
+
 def test_a_block_knocked_off_the_workspace_is_brought_back_with_wide_open_fingers():
     core = ExecutorCore(CFG)
     world = World(core, START)
