@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field
 
 from msgs_py import Plan, Pose2D, Scene, Workspace
-from msgs_py.actions import Action
+from msgs_py.actions import Action, Push
 from msgs_py.cell import GripperGeometry, table_margin_of
 from nodes.executor.primitives import GRASP_SYMMETRY
 from nodes.executor.states import Held
@@ -51,15 +51,26 @@ class Belief:
         self.probes = 0
         self.moved_aside = set()
 
-    def stranded(self) -> list[int]:
-        """Blocks a recovery moved that the plan moves no more: it would leave them where
-        the recovery put them, off their goal and maybe on a slot still to fill (the nudge
-        fault, seed 7: a block set apart after its placement, onto the next row's slot, met
-        by a later placement's fingers)."""
+    def stranded(self) -> dict[int, str]:
+        """Blocks a recovery moved that the plan cannot take on from where they stand, and
+        why: the plan moves them no more (it would leave them where the recovery put them,
+        off their goal and maybe on a slot still to fill: the nudge fault, seed 7), or their
+        next action is a push (it runs along the plan's line, so a block set apart beside
+        its start ends beside its goal: the 200-goal soak's goal 116, 13 mm off and walled
+        in by its neighbours). A next pick takes the block where it is seen."""
         if self.plan is None:
-            return []
-        ahead = {a.block for a in self.plan.actions[self.index:]}
-        return sorted(self.moved_aside - ahead)
+            return {}
+        nxt: dict[int, Action] = {}
+        for action in self.plan.actions[self.index:]:
+            nxt.setdefault(action.block, action)
+        why = {}
+        for block in sorted(self.moved_aside):
+            action = nxt.get(block)
+            if action is None:
+                why[block] = "after its last action in the plan"
+            elif isinstance(action, Push):
+                why[block] = "off the start of its next push"
+        return why
 
     @property
     def scene(self) -> Scene | None:

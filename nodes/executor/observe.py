@@ -291,7 +291,7 @@ def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfi
                 report: Report, pending: Plan | None) -> Decision:
     """After an action, a recovery or a stop: the world must be as expected. A block not
     seen is looked for from the park pose, then the run stops; a block off, a new one, or
-    one a recovery moved that the plan moves no more (``Belief.stranded``) asks for a
+    one a recovery moved that the plan cannot take on from there (``Belief.stranded``) asks for a
     replan; else the next action (or the ``pending`` plan that came meanwhile, or
     the goal)."""
     plan = belief.plan
@@ -316,8 +316,8 @@ def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfi
     if off or newcomers or stranded:
         why = "; ".join([d.describe() for d in off[:3]]
                         + [f"block {b} appeared" for b in newcomers[:3]]
-                        + [f"block {b} moved aside by a recovery after its last action in "
-                           "the plan" for b in stranded[:3]])
+                        + [f"block {b} moved aside by a recovery {where}"
+                           for b, where in list(stranded.items())[:3]])
         return Replan(f"{judged_after(belief)}: {why}")
     belief.expected = dict(belief.perceived)
     if pending is not None:

@@ -237,6 +237,30 @@ def test_a_placed_block_knocked_onto_another_is_set_apart_and_the_run_replans():
     assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
 
 
+def test_a_block_set_apart_before_its_push_asks_for_a_replan():
+    """Regression (the 200-goal soak, goal 116): block 2, set down on its push line by action
+    2, is seen overlapping block 1 and set apart. Its next action is the push, which runs
+    along the plan's line from wherever the block stands: from the set-apart spot it would end
+    beside its goal, walled in by its neighbours. A replan takes it from there."""
+    core = ExecutorCore(CFG)
+    world = World(core, START)
+    knocked = Pose2D(GOAL[1].x + 0.041, GOAL[1].y, 0.0)
+
+    def knock(actions_done):
+        if actions_done == 2 and core.belief.plan.plan_id == "p1":
+            world.blocks[2] = knocked
+
+    world.disturb = knock
+    world.on_replan = lambda: two_action_plan_from(world.blocks)
+    core.on_plan(two_action_plan())
+    world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
+    assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
+    assert any("block 2 moved aside by a recovery off the start of its next push" in line
+               for line in world.logs), world.logs
+    assert world.replan_requests == 1 and core.state is State.DONE
+    assert world.blocks[2].distance_to(GOAL[2]) < 1e-9
+
+
 def two_action_plan_from(blocks):
     """The plan the planner would send from ``blocks`` (block id -> pose): each block that is
     off its goal moved there as in ``two_action_plan``."""
