@@ -111,8 +111,7 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as err:  # a node that dies reports why and exits non-zero
-        print(f"[{spec.name}] fatal: {type(err).__name__}: {err}", file=sys.stderr, flush=True)
-        code = 1
+        code = _failed(spec.name, err)
     finally:
         if executor is not None:
             executor.shutdown()
@@ -120,3 +119,15 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
             node.destroy_node()
         rclpy.try_shutdown()
     return code
+
+
+def _failed(name: str, err: Exception) -> int:
+    """The exit code for ``err`` escaping the spin: 0 when the context was shut down under a
+    callback (a signal arrived while it ran, and its next call into rcl met the shut context:
+    the stop asked for, not a crash), else 1, reported as fatal."""
+    if not rclpy.ok():
+        print(f"[{name}] stopped: a callback was cut short by the shutdown "
+              f"({type(err).__name__}: {err})", file=sys.stderr, flush=True)
+        return 0
+    print(f"[{name}] fatal: {type(err).__name__}: {err}", file=sys.stderr, flush=True)
+    return 1

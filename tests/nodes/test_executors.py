@@ -82,3 +82,38 @@ def test_an_unknown_executor_choice_is_refused_by_name(monkeypatch):
     monkeypatch.setenv(EXECUTOR_ENV, "fast")
     with pytest.raises(ValueError, match=f"{EXECUTOR_ENV}='fast'"):
         single_threaded()
+
+
+#: A node process whose timer callback meets the shut context (as a signal's shutdown arriving
+#: mid-callback leaves it) or fails with the context still up: ``run_node``'s exit code.
+CUT_SHORT = """
+import sys
+import rclpy
+from rcl_interfaces.srv import ListParameters
+from rclpy.node import Node
+from nodes.common.runner import NodeSpec, run_node
+
+def build():
+    node = Node("cut_short")
+    client = node.create_client(ListParameters, "/x")
+    def tick():
+        if sys.argv[1] == "shutdown":
+            rclpy.try_shutdown()  # what the signal handler does, between two rcl calls
+        client.service_is_ready()
+        raise RuntimeError("the callback failed with the context up")
+    node.create_timer(0.01, tick)
+    return node
+
+sys.exit(run_node(NodeSpec("cut_short", build, "test node", threads=1), []))
+"""
+
+
+@pytest.mark.parametrize(("case", "code"), [("shutdown", 0), ("bug", 1)])
+def test_a_callback_cut_short_by_the_shutdown_is_a_clean_stop(case, code):
+    """Regression (CI, 2026-12-04): a SIGINT arrived while the executor node's timer ran; its
+    next rcl call raised on the shut context and the process exited 1 ("fatal"), which
+    densepack-cell takes for a crash. A failure with the context still up stays fatal."""
+    result = subprocess.run([sys.executable, "-c", CUT_SHORT, case], cwd=REPO, text=True,
+                            capture_output=True, timeout=60)
+    assert result.returncode == code, result.stderr
+    assert ("stopped: a callback was cut short" if code == 0 else "fatal:") in result.stderr
