@@ -149,15 +149,15 @@ def _apart_grasp(belief: Belief, first: int, second: int
     ignoring the partner (the overlap may leave no grasp beside it), the first, then the
     other. The grasp is None when neither block has one."""
     table = belief.table()
-    without = {b: {k: p for k, p in belief.perceived.items() if k != other}
-               for b, other in ((first, second), (second, first))}
-    tries = [(b, belief.perceived) for b in (first, second)] + [
-        (b, without[b]) for b in (first, second)]
-    for block, around in tries:
-        grasp = free_grasp(around, block, belief.geo, table)
-        if grasp is not None:
-            return block, first + second - block, grasp, around
-    return second, first, None, without[second]
+    around = belief.perceived
+    for beside_partner in (True, False):
+        for block, partner in ((first, second), (second, first)):
+            around = belief.perceived if beside_partner else {
+                k: p for k, p in belief.perceived.items() if k != partner}
+            grasp = free_grasp(around, block, belief.geo, table)
+            if grasp is not None:
+                return block, partner, grasp, around
+    return second, first, None, around
 
 
 def _which_first(belief: Belief, tries: Tries, pairs: list[tuple[int, int]]

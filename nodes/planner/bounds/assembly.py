@@ -16,9 +16,8 @@ rest feasible, else a push-only one, sweeping the layout from -y to +y so that l
 
 from __future__ import annotations
 
-import functools
 import operator
-from functools import cache, cached_property
+from functools import cache, cached_property, reduce
 
 import numpy as np
 
@@ -148,7 +147,7 @@ class Assembly:
         n = len(self.ids)
         dep = [0] * n
         for d, ways in enumerate(self._enter):
-            over = functools.reduce(operator.or_, ways, 0)
+            over = reduce(operator.or_, ways, 0)
             for c in range(n):
                 if over >> c & 1:
                     dep[c] |= 1 << d

@@ -110,7 +110,7 @@ def test_a_block_leaning_on_its_neighbour_is_gripped_across_the_lean():
     toward_partner = math.atan2(GOAL[1].y - leaning.y, GOAL[1].x - leaning.x)
 
     def knock(actions_done):
-        if actions_done == 1 and world.blocks[2] != leaning and core.belief.plan.plan_id == "p1":
+        if actions_done == 1 and core.belief.plan.plan_id == "p1":
             world.blocks[2] = leaning
 
     def floor(tool):  # a finger over block 1 stops the descent on its top face
