@@ -17,7 +17,7 @@ rest feasible, else a push-only one, sweeping the layout from -y to +y so that l
 from __future__ import annotations
 
 import operator
-from functools import cache, cached_property, reduce
+from functools import cached_property, reduce
 
 import numpy as np
 
@@ -59,6 +59,11 @@ class Assembly:
         self._y = {b: (round(slots[b].y, 4), round(slots[b].x, 4), b) for b in self.ids}
         self.index = {b: k for k, b in enumerate(self.ids)}
         self._enter: list[list[int]] = [[] for _ in range(n)]
+        # Memos of feasible() and future_pushes() by filled mask, held by this instance: a
+        # functools.cache on the methods would be one table per class, keyed by self, that
+        # keeps every Assembly of every planning run alive for the life of the planner node.
+        self._feasible_memo: dict[int, bool] = {}
+        self._future_pushes_memo: dict[int, int] = {}
         if not n:
             return
         poses = np.array([[slots[b].x, slots[b].y, slots[b].theta] for b in self.ids])
@@ -134,11 +139,12 @@ class Assembly:
         return out
 
     def feasible(self, filled: int) -> bool:
-        return self._feasible(filled & self.all)
-
-    @cache  # noqa: B019 - one Assembly per planning run; the cache dies with it
-    def _feasible(self, filled: int) -> bool:
-        return not self.stuck(filled)
+        """The empty slots of ``filled`` can all still be filled (memoised)."""
+        filled &= self.all
+        known = self._feasible_memo.get(filled)
+        if known is None:
+            known = self._feasible_memo[filled] = not self.stuck(filled)
+        return known
 
     @cached_property
     def _dependents(self) -> list[int]:
@@ -208,17 +214,20 @@ class Assembly:
 
     def future_pushes(self, filled: int) -> int:
         """Push-only placements the greedy order still needs from ``filled`` (a lookahead)."""
-        return self._future_pushes(filled & self.all)
+        filled &= self.all
+        known = self._future_pushes_memo.get(filled)
+        if known is None:
+            known = self._future_pushes_memo[filled] = self._count_future_pushes(filled)
+        return known
 
-    @cache  # noqa: B019 - see _feasible
-    def _future_pushes(self, filled: int) -> int:
+    def _count_future_pushes(self, filled: int) -> int:
         if filled == self.all:
             return 0
         if not self.feasible(filled):
             return len(self.ids)
         nxt = self._next(filled)
         push = 0 if self.placeable(nxt, filled) else 1
-        return push + self._future_pushes(filled | self.bit[nxt])
+        return push + self.future_pushes(filled | self.bit[nxt])
 
 
 def _minimal(masks: list[int]) -> list[int]:
