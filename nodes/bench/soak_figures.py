@@ -20,8 +20,8 @@ from msgs_py import BlockSet, Plan, Scene
 
 #: Executor status metrics counted over the executor's life, not per goal: a goal's own is
 #: the difference over it.
-LIFETIME_COUNTS = ("actions_executed", "observations", "faults", "protective_stops",
-                   "blocked_descents")
+LIFETIME_COUNTS = ("actions_executed", "observations", "late_detections", "faults",
+                   "protective_stops", "blocked_descents")
 #: A goal's first plan must start within this of where its scene put the blocks (the
 #: detection's error is a fraction of a millimetre; the last goal's end is centimetres away).
 FRESH_START_M = 0.005

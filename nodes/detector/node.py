@@ -53,6 +53,13 @@ from nodes.detector.warning_kinds import WarningKind
 WATCHDOG_PERIOD_S = 1.0
 NO_FRAME_WARN_S = 2.0  # images arriving but no complete frame for this long -> warn
 WARN_EVERY_S = 5.0  # the same kind of warning at most this often
+#: A frame complete (image and camera_info in) this long after its stamp (s, on the node's
+#: clock) came late: a render takes a fraction of a second; a reliable frame whose lost
+#: fragment waits for the DDS writer's next heartbeat (3 s by default) takes longer.
+LATE_FRAME_S = 1.5
+#: ... but one stamped this much (s) before the node's clock says nothing of the link: the
+#: camera's clock and the node's are apart (a driver on an unsynced host, a test's stamps).
+CLOCKS_APART_S = 60.0
 COUNTS_LOG_S = 10.0  # skipped frames are summed up in the log at most this often
 TAKE_TIMEOUT_S = 0.5  # the worker looks at its stop flag at least this often
 #: Drops worth a warning (something is wrong); the others are a stream's normal losses.
@@ -72,6 +79,7 @@ class DetectorNode(Node):
         self._refused_models: set[str] = set()
         self.frames = 0  # frames processed and published
         self.refused = 0  # frames skipped as malformed
+        self.late_frames = 0  # frames complete LATE_FRAME_S or more after their stamp
         self._logged: Counter[Drop] = Counter()  # the drop counts as last logged
         self._last_counts_log = time.monotonic()
         self._last_image_wall = 0.0
@@ -140,11 +148,11 @@ class DetectorNode(Node):
     def on_image(self, msg: Image) -> None:
         self._last_image_wall = time.monotonic()
         self._follow_clock_jump()
-        self._handle(self.inbox.add_image(stamp_to_ns(msg.header.stamp), msg))
+        self._handle(self.inbox.add_image(stamp_to_ns(msg.header.stamp), msg), "image")
 
     def on_info(self, msg: CameraInfo) -> None:
         self._follow_clock_jump()
-        self._handle(self.inbox.add_info(stamp_to_ns(msg.header.stamp), msg))
+        self._handle(self.inbox.add_info(stamp_to_ns(msg.header.stamp), msg), "camera_info")
 
     def on_joint_state(self, msg: JointState) -> None:
         try:
@@ -183,7 +191,8 @@ class DetectorNode(Node):
             self.warn(WarningKind.CLOCK, "the clock jumped back (simulation reset?): starting "
                       "afresh, known blocks forgotten")
 
-    def _handle(self, result: PairResult) -> None:
+    def _handle(self, result: PairResult, came: str) -> None:
+        """``result`` of pairing the ``came`` (image or camera_info) just received."""
         if result.clock_reset:
             self._forget.set()
             self.warn(WarningKind.CLOCK, "image stamps jumped back (simulation reset?): "
@@ -193,6 +202,16 @@ class DetectorNode(Node):
                 self.warn(WARNED_DROPS[why], f"frame {stamp_ns} ns skipped: {why.value}")
         if result.pair is not None:
             self._last_frame_wall = time.monotonic()
+            self._note_late(result.pair[0], came)
+
+    def _note_late(self, stamp_ns: int, came: str) -> None:
+        """Count and log a frame complete LATE_FRAME_S or more after its stamp, naming the
+        message that came last: in a long run, a slow link from the camera shows here."""
+        late_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
+        if LATE_FRAME_S <= late_s < CLOCKS_APART_S:
+            self.late_frames += 1
+            self.warn(WarningKind.LATE_FRAME, f"frame {stamp_ns} ns complete {late_s:.1f} s "
+                      f"after its stamp (its {came} came last; {self.late_frames} late so far)")
 
     # --- processing (the worker thread) ----------------------------------------------------
     def _work(self) -> None:

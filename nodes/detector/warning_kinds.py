@@ -16,6 +16,7 @@ class WarningKind(enum.Enum):
     STALE_FRAME = "frame older than the last one processed"
     UNPAIRED = "images without camera_info of their stamp"
     NO_FRAME = "images arrive but no frame is complete"
+    LATE_FRAME = "frame complete long after its stamp"
     CLOCK = "clock jumped back"
     # the arm's placements
     PLACEMENT = "malformed placement"

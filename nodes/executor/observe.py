@@ -66,6 +66,10 @@ WAYPOINT_BLEND_M = 0.04
 GRASP_RETRIES = 2
 #: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
 IDLE_LOOK_SOON_S = 0.5
+#: A detection this long after its camera trigger (s) came late. Trigger, render, transfer
+#: and detection take 0.5-1.5 s in the cell; a reliable frame or detection whose lost
+#: fragment waits for the DDS writer's next heartbeat (3 s by default) takes longer.
+LATE_DETECTION_S = 2.0
 
 
 @dataclass
@@ -125,6 +129,18 @@ class Camera:
         if self.trigger_ns is not None:
             self.trigger_ns = max(self.trigger_ns, stamp_ns)
             self.frame_taken = True
+
+    def late(self, frame_stamp_ns: int, now: float) -> str | None:
+        """Where the time went, when the detection of the frame stamped ``frame_stamp_ns``
+        comes LATE_DETECTION_S or more after the trigger (None: in time): so that a slow
+        link shows in a long run's log, named by its side of the camera."""
+        waited = now - self.trigger_time
+        if waited < LATE_DETECTION_S:
+            return None
+        taken = frame_stamp_ns * 1e-9 - self.trigger_time
+        return (f"detection {waited:.1f} s after the camera trigger: the frame taken "
+                f"{taken:.1f} s after the trigger, its detection here {waited - taken:.1f} s "
+                "after that")
 
     def accepts(self, detection: BlockSet) -> bool:
         """Whether ``detection`` is of the frame asked for (then no other counts)."""

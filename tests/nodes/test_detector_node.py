@@ -327,3 +327,14 @@ def test_a_frame_whose_detection_fails_is_skipped_and_the_next_is_detected(ros, 
     node.detector.process = fail_once
     assert block_set_from_msg(detection(ros, camera, frame())).ids == [b.id for b in BLOCKS]
     assert len(failures) == 1 and node.refused == 1
+
+
+def test_a_frame_complete_long_after_its_stamp_is_counted_and_named(ros, setup):
+    """A frame whose image comes seconds after its stamp (a slow link from the camera) is
+    warned about, naming the message that came last; frames in time are not."""
+    node, camera = setup
+    detection(ros, camera, frame())  # stamped 1 s after the epoch: clocks apart, not late
+    assert node.late_frames == 0
+    camera.send(frame(), stamp_ns=node.get_clock().now().nanoseconds - 3_000_000_000)
+    wait_for_warning(node, " s after its stamp (its ")  # image or camera_info: either order
+    assert node.late_frames == 1

@@ -149,3 +149,20 @@ def test_without_a_camera_model_the_arm_looks_from_the_look_pose():
     world.run(lambda: core.state is State.DONE)
     assert any(is_look_pose(t) for t in world.trigger_poses)
     assert core.report.metrics.get("looks_on_the_way", 0.0) == 0.0
+
+
+def test_a_detection_seconds_after_its_trigger_is_counted_and_explained():
+    """A slow link shows in the run's metrics and log: each detection 2 s or more after its
+    trigger is counted, with the wait before the frame was taken and after it; one in time
+    is not."""
+    patient = dataclasses.replace(CFG, detection_timeout_s=6.0)  # the cell's (CFG's: 1 s)
+    for delay in (0.3, 3.0):
+        core = ExecutorCore(patient)
+        world = World(core, START, camera_delay=delay)
+        core.on_plan(two_action_plan())
+        world.run(lambda c=core: c.state is State.DONE)
+        late = [line for line in world.logs if "after the camera trigger" in line]
+        counted = core.report.metrics.get("late_detections", 0)
+        assert counted == (0 if delay < 1.0 else core.report.metrics["observations"])
+        assert counted - 1 <= len(late) <= counted  # the last line would leave on a next tick
+    assert late and "the frame taken 0.0 s after the trigger, its detection here 3.0 s" in late[0]
