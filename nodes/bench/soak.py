@@ -38,6 +38,7 @@ from msgs_py import Scene, save_scene
 from nodes.bench import proc_stats
 from nodes.bench.cell_figures import SUCCESS_POS_M, SUCCESS_YAW_DEG, held_at_end
 from nodes.bench.soak_figures import (
+    BENCH_CLIENT,
     flat_row,
     fresh_start_problems,
     goal_counts,
@@ -57,7 +58,7 @@ from nodes.common.qos import RELIABLE
 from nodes.sim.layout import random_sim_scene
 
 #: The processes whose memory and CPU are reported: the cell's and this one (the client).
-PROCESSES = ("sim", "detector", "planner", "arm", "gripper", "executor", "client")
+PROCESSES = ("sim", "detector", "planner", "arm", "gripper", "executor", BENCH_CLIENT)
 #: Wall-time limits of the steps between goals (s).
 SERVICE_S = 60.0
 SCENE_SEEN_S = 90.0
@@ -96,7 +97,7 @@ class SoakCell:
     def pids(self) -> dict[str, int]:
         pids = {name: proc.pid for name, proc in self.cell.procs.items()
                 if proc.poll() is None}
-        return {**pids, "client": os.getpid()}
+        return {**pids, BENCH_CLIENT: os.getpid()}
 
     def lay_out(self, scene: Scene, seed: int, blocks: int, density: float) -> None:
         """The sim's next scene (its random.* parameters, then /sim/reset), the detector's

@@ -100,3 +100,12 @@ def test_a_row_for_the_table_spreads_the_processes_into_columns():
     assert row["rss_sim_mb"] == 300.0 and row["rss_arm_mb"] is None
     assert row["cpu_total_s"] == 1.0 and "rss_mb" not in row
     assert not math.isnan(row["wall_s"])
+
+
+def test_the_memory_target_is_the_cells_processes_and_the_client_is_reported_beside():
+    rows = _rows([300.0] * 6, [100.0] * 6)
+    for k, row in enumerate(rows):
+        row["rss_mb"]["client"] = 100.0 + 5.0 * k  # the benchmark's own process grows
+    summary = summarise(rows)
+    assert summary["targets"]["memory"] and "client" not in summary["memory_growth"]
+    assert summary["client_memory_growth"] == pytest.approx(125.0 / 110.0 - 1)  # from goal 3
