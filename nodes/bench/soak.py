@@ -198,6 +198,7 @@ def one_goal(soak: SoakCell, goal: int, seed: int, scene: Scene, before: dict[st
         "cpu_s": {n: proc_stats.cpu_used(before["samples"].get(n), s)
                   for n, s in samples.items()},
         "executor_counts": counts, "notes": m["notes"], "last_error": m["last_error"],
+        "events": m["events"],  # the sim's unintended contacts and lost blocks, each with why
     }
     row["success"] = (row["outcome"] == "done" and row["worst_mm"] is not None
                       and row["worst_mm"] <= SUCCESS_POS_M * 1e3
