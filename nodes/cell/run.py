@@ -81,7 +81,7 @@ class SimStarter:
     def __init__(self, monitor: RunMonitor, nodes: set[str]) -> None:
         self.monitor = monitor
         self.nodes = nodes  #: the run's own nodes, but the sim
-        self.client = monitor.node.create_client(Trigger, "/sim/start")
+        self.client = monitor.sim_start
         self.asked = False
 
     def step(self) -> None:
