@@ -159,11 +159,7 @@ class ExecutorCore:
     def on_detection(self, detection: BlockSet) -> None:
         if self.state is not State.OBSERVING or not self.camera.accepts(detection):
             return
-        self.report.count("observations")
-        late = self.camera.late(detection.stamp_ns, self._now)
-        if late is not None:
-            self.report.count("late_detections")
-            self.report.log(late)
+        observe.count_detection(self.camera, detection.stamp_ns, self._now, self.report)
         if self.player.busy:  # moving on towards the next block: judged on arrival
             self.camera.arrived = detection
             return

@@ -150,6 +150,16 @@ class Camera:
         return True
 
 
+def count_detection(camera: Camera, frame_stamp_ns: int, now: float, report: Report) -> None:
+    """An accepted detection in the status metrics: one more observation, and a late one
+    (``Camera.late``) counted and logged with where the time went."""
+    report.count("observations")
+    late = camera.late(frame_stamp_ns, now)
+    if late is not None:
+        report.count("late_detections")
+        report.log(late)
+
+
 def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
             here: ToolPose | None) -> Enter:
     """Out of view (from ``here``), then a frame for ``d.purpose``."""
