@@ -182,10 +182,10 @@ class ExecutorCore:
             self.planner.replans = 0
             self._decide(Enter(State.IDLE))
 
-    def on_planner_waiting(self, for_detection: bool) -> None:
+    def on_planner_waiting(self, for_detection: bool, why: str = "") -> None:
         """A planner waiting for a frame (started after the last idle look, or restarted
         while a correcting plan is awaited) gets looks often (``replan.await_plan``)."""
-        self.planner.wants_frame = for_detection
+        self.planner.hear(for_detection, why)
 
     def on_planner_failed(self, reason: str) -> None:
         """No plan for our replan request: what is left may be beyond the planner's reach

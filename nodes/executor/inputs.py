@@ -51,8 +51,8 @@ class ExecutorInputs(Protocol):
     def on_plan(self, plan: Plan) -> None:
         """The planner: a plan (latched; the same one again is ignored)."""
 
-    def on_planner_waiting(self, for_detection: bool) -> None:
-        """The planner: whether it waits for a detection to plan from."""
+    def on_planner_waiting(self, for_detection: bool, why: str = "") -> None:
+        """The planner: whether it waits for a detection to plan from, and why."""
 
     def on_planner_failed(self, reason: str) -> None:
         """The planner: no plan for the executor's replan request."""

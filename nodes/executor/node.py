@@ -173,7 +173,7 @@ class ExecutorNode(Node):
             return
         self.rearrange.on_planner_status(status)
         with self.lock:
-            self.core.on_planner_waiting(status.wants_detection)
+            self.core.on_planner_waiting(status.wants_detection, status.last_error)
         if status.state == "failed":
             with self.lock:
                 self.core.on_planner_failed(status.last_error)

@@ -44,11 +44,20 @@ class PlannerLink:
     rejected: set[str] = field(default_factory=set)
     pending: Plan | None = None  #: came while the arm was busy: taken once it is done
     wants_frame: bool = False  #: the planner waits for a detection (to plan from)
+    #: why the planner last said it waits (a block hidden or gone, say): a run that gives up
+    #: names it, not only the drift it asked a correction for
+    waiting_why: str = ""
     want_replan: bool = False  #: for the next tick's outputs
     #: a look was made because the planner waited for a frame: the replan that follows it is
     #: the same correction asked again (``frame_looks`` such since the last counted replan)
     shown_frame: bool = False
     frame_looks: int = 0
+
+    def hear(self, wants_frame: bool, why: str) -> None:
+        """The planner's word on its status: whether it waits for a frame, and why."""
+        self.wants_frame = wants_frame
+        if wants_frame:
+            self.waiting_why = why
 
     def ask(self, now: float) -> None:
         self.asked_at = now
@@ -63,6 +72,7 @@ def adopt(plan: Plan, belief: Belief, planner: PlannerLink, tries: Tries, report
     report.last_error = ""
     planner.pending = None
     planner.shown_frame, planner.frame_looks = False, 0
+    planner.waiting_why = ""
     report.say(f"plan {plan.plan_id or '?'}: {len(plan.actions)} actions")
 
 
@@ -126,7 +136,9 @@ def replan(d: Replan, belief: Belief, planner: PlannerLink, cfg: ExecutorConfig,
                     d, belief, planner, report, now)
     planner.frame_looks = 0
     if planner.replans >= cfg.max_replans:
-        return Stop(f"gave up after {planner.replans} replans; last: {d.reason}", failed=True)
+        why = f"; the planner: {planner.waiting_why}" if planner.waiting_why else ""
+        return Stop(f"gave up after {planner.replans} replans; last: {d.reason}{why}",
+                    failed=True)
     planner.replans += 1
     return _ask(f"replanning ({planner.replans}/{cfg.max_replans}): {d.reason}", d, belief,
                 planner, report, now)
