@@ -13,18 +13,20 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from nodes.common.transports import TRANSPORTS_ENV, UDP_AFTER_RESPAWN
+
 #: A ROS launch file's default respawn_delay is 0; a node that died of a transient (its DDS
 #: peer not yet up, a port still bound) needs a moment before it starts again.
 DEFAULT_DELAY_S = 2.0
 DEFAULT_MAX_RESPAWNS = 3
 
-#: Fast DDS's built-in transports for a node started again after its process died: UDP only.
-#: A SIGKILLed process leaves its shared-memory port behind. In one chaos run an executor
-#: back under the dead one's participant id (its port) heard nothing for 8 minutes (not its
-#: goal, sent 26 times, nor the latched plan) while its own messages went out; the same run
-#: again heard everything, so the cause is inferred, not shown: over UDP nothing of the dead
-#: process is reused.
-RESPAWN_TRANSPORTS = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+#: Fast DDS's built-in transports for a node started again after its process died: UDP only
+#: (``nodes.common.transports``). A SIGKILLed process leaves its shared-memory port behind.
+#: In one chaos run an executor back under the dead one's participant id (its port) heard
+#: nothing for 8 minutes (not its goal, sent 26 times, nor the latched plan) while its own
+#: messages went out; the same run again heard everything, so the cause is inferred, not
+#: shown: over UDP nothing of the dead process is reused.
+RESPAWN_TRANSPORTS = {TRANSPORTS_ENV: UDP_AFTER_RESPAWN}
 
 
 def respawn_env(env: dict[str, str]) -> dict[str, str]:

@@ -30,6 +30,7 @@ from rclpy.utilities import remove_ros_args
 
 from nodes.common.executors import PatientExecutor, single_threaded, spin
 from nodes.common.params import describe_config
+from nodes.common.transports import size_for_frames
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,8 @@ class NodeSpec:
     configs: tuple[tuple[str, type], ...] = ()
     topics: str = ""
     threads: int = 4
+    #: publishes camera frames: its transports are sized for them (``nodes.common.transports``)
+    publishes_frames: bool = False
 
     def help_text(self) -> str:
         lines = [self.description.strip(), ""]
@@ -97,6 +100,8 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     parser.parse_args(user_args)
 
     die_with_launcher()
+    if spec.publishes_frames:
+        size_for_frames(os.environ)
     rclpy.init(args=ros_argv)  # installs SIGINT/SIGTERM handlers that shut the context down
     node = executor = None
     code = 0

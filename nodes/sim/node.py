@@ -374,6 +374,7 @@ SPEC = NodeSpec(
     # Callbacks only validate and queue for the sim loop; a service waits for the loop's
     # answer, which needs no other callback, so one thread serves them all.
     threads=1,
+    publishes_frames=True,
 )
 
 

@@ -32,6 +32,7 @@ SUITES = {
     "unlabeled": "nodes.bench.unlabeled",
     "reference": "nodes.bench.reference",
     "placement": "nodes.bench.placement",
+    "transport": "nodes.bench.transport",
 }
 
 

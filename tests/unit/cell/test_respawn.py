@@ -85,7 +85,8 @@ def test_a_run_starts_a_crashed_node_again_and_reports_the_one_it_may_not(tmp_pa
 
 
 def test_a_node_started_again_talks_udp_only_unless_the_user_chose_a_transport():
-    assert respawn_env({"ROS_DOMAIN_ID": "7"}) == {
-        "ROS_DOMAIN_ID": "7", "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+    env = respawn_env({"ROS_DOMAIN_ID": "7"})
+    assert env["ROS_DOMAIN_ID"] == "7"
+    assert env["FASTDDS_BUILTIN_TRANSPORTS"].split("?")[0] == "UDPv4"
     chosen = {"FASTDDS_BUILTIN_TRANSPORTS": "LARGE_DATA"}
     assert respawn_env(chosen) == chosen
