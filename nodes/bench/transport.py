@@ -13,6 +13,7 @@ closes; the writer process raises Fast DDS's log to warnings for it).
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 import re
 import statistics
@@ -21,6 +22,11 @@ import sys
 import time
 from typing import Any
 
+import rclpy
+from rclpy.time import Time
+from sensor_msgs.msg import Image
+
+from nodes.common.qos import CAMERA
 from nodes.common.transports import FRAME_WRITER_TRANSPORTS, TRANSPORTS_ENV
 
 #: (name, FASTDDS_BUILTIN_TRANSPORTS or None for Fast DDS's own default)
@@ -77,13 +83,6 @@ def _variant(name: str, transports: str | None, frames: int, opts: argparse.Name
 
 
 def _writer(frames: int, rate: float, readers: int) -> None:
-    import ctypes
-
-    import rclpy
-    from sensor_msgs.msg import Image
-
-    from nodes.common.qos import CAMERA
-
     rclpy.init()
     warning = 1  # eprosima::fastdds::dds::Log::Kind::Warning: the segment's overflow count
     fastdds = ctypes.CDLL("libfastrtps.so.2.14")
@@ -105,12 +104,6 @@ def _writer(frames: int, rate: float, readers: int) -> None:
 
 
 def _reader(window_s: float) -> None:
-    import rclpy
-    from rclpy.time import Time
-    from sensor_msgs.msg import Image
-
-    from nodes.common.qos import CAMERA
-
     rclpy.init()
     node = rclpy.create_node("transport_bench_reader")
     delays: list[float] = []
