@@ -213,6 +213,15 @@ class DetectorNode(Node):
             self.warn(WarningKind.LATE_FRAME, f"frame {stamp_ns} ns complete {late_s:.1f} s "
                       f"after its stamp (its {came} came last; {self.late_frames} late so far)")
 
+    def _note_slow(self, stamp_ns: int, detect_s: float) -> None:
+        """Log a detection published LATE_FRAME_S or more after its frame's stamp, with the
+        detection's own time: with ``_note_late`` (the frame's arrival) it tells a late
+        detection's wait apart from the way to its readers."""
+        late_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
+        if LATE_FRAME_S <= late_s < CLOCKS_APART_S:
+            self.warn(WarningKind.LATE_FRAME, f"frame {stamp_ns} ns: detection published "
+                      f"{late_s:.1f} s after its stamp (detecting took {detect_s:.2f} s)")
+
     # --- processing (the worker thread) ----------------------------------------------------
     def _work(self) -> None:
         while not self._stop.is_set():
@@ -257,6 +266,7 @@ class DetectorNode(Node):
             self.warn(warning.kind, f"frame {stamp_ns} ns: {warning.text}")
         self.publisher.publish(detected)
         self.markers.publish(block_set_to_markers(blocks))
+        self._note_slow(stamp_ns, result.detect_s)
         self.frames += 1
         self.get_logger().debug(
             f"frame {stamp_ns} ns: {len(result.blocks.blocks)} blocks, missing "

@@ -338,3 +338,7 @@ def test_a_frame_complete_long_after_its_stamp_is_counted_and_named(ros, setup):
     camera.send(frame(), stamp_ns=node.get_clock().now().nanoseconds - 3_000_000_000)
     wait_for_warning(node, " s after its stamp (its ")  # image or camera_info: either order
     assert node.late_frames == 1
+    # ... and its detection, published seconds after the stamp, says how long detecting took
+    wait_for_warning(node, "detection published ")
+    said = [w for w in node.recent_warnings if "detection published" in w]
+    assert "detecting took" in said[-1]
