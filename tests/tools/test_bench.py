@@ -22,4 +22,4 @@ def test_non_finite_figures_become_null_in_json():
 def test_unknown_or_missing_suite_is_reported(capsys):
     assert main([]) == 2
     assert set(SUITES) == {"sim", "arm", "perception", "planner", "cell", "unlabeled",
-                           "placement", "reference", "soak"}
+                           "placement", "reference", "soak", "transport"}
