@@ -30,7 +30,7 @@ from rclpy.utilities import remove_ros_args
 
 from nodes.common.executors import PatientExecutor, single_threaded, spin
 from nodes.common.params import describe_config
-from nodes.common.transports import size_for_frames
+from nodes.common.transports import size_for_frames, use_profile
 
 
 @dataclass(frozen=True)
@@ -102,6 +102,7 @@ def run_node(spec: NodeSpec, args: Sequence[str] | None = None) -> int:
     die_with_launcher()
     if spec.publishes_frames:
         size_for_frames(os.environ)
+    use_profile(os.environ)
     rclpy.init(args=ros_argv)  # installs SIGINT/SIGTERM handlers that shut the context down
     node = executor = None
     code = 0
