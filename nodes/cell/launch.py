@@ -30,6 +30,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.signals import SignalHandlerOptions
 
 from nodes.cell.respawn import Respawn, RespawnBook, respawn_env
+from nodes.cell.shared_memory import clean_dead_shared_memory
 from nodes.common.executors import PatientExecutor
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
@@ -166,6 +167,7 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
             if proc.poll() is not None:
                 del procs[name]
                 print(f"[cell] {book.on_exit(name, proc.returncode, now)}", flush=True)
+                print(f"[cell] {clean_dead_shared_memory()}", flush=True)
         for name in book.due(now):
             start(by_name[name], again=True)
         if book.fatal is not None or not (procs or book.due_at):
@@ -174,6 +176,7 @@ def run_processes(launches: Sequence[NodeLaunch], extra_ros: Sequence[str]) -> i
     _terminate(procs)
     for pump in pumps:  # forward every line the nodes wrote before they exited
         pump.join(timeout=5.0)
+    print(f"[cell] {clean_dead_shared_memory()}", flush=True)  # of any node that died
     print("[cell] all nodes stopped", flush=True)
     return 1 if book.fatal is not None else 0
 

@@ -13,6 +13,7 @@ from typing import IO, Any
 
 from nodes.cell.launch import NodeLaunch, load_cell
 from nodes.cell.respawn import RespawnBook, respawn_env
+from nodes.cell.shared_memory import clean_dead_shared_memory
 from nodes.common.harness import allocate_domain_id
 from nodes.common.paths import config_path
 from nodes.common.runner import LAUNCHER_PID_ENV
@@ -55,8 +56,11 @@ class CellRun:
                         **{LAUNCHER_PID_ENV: str(os.getpid())})
 
     def start(self, name: str | None = None, again: bool = False) -> None:
-        """Start every node, or ``name``; ``again``: after its process died (``respawn_env``)."""
+        """Start every node, or ``name``; ``again``: after its process died (``respawn_env``).
+        A node started again may follow a killed one: the dead one's shared memory goes first."""
         env = respawn_env(self.env) if again else self.env
+        if name is not None:
+            self._log(f"[cell] {clean_dead_shared_memory()}\n")
         for launch in [self.launches[name]] if name else self.launches.values():
             self.procs[launch.name] = self._spawn(launch.name, launch.command(self.extra), env)
             self.killed.discard(launch.name)
@@ -123,6 +127,7 @@ class CellRun:
                 proc.wait()
         for pump in self.pumps:
             pump.join(timeout=2.0)
+        self._log(f"[cell] {clean_dead_shared_memory()}\n")  # a node killed, or that crashed
 
 
 def private_domain() -> int:

@@ -204,11 +204,16 @@ class DetectorNode(Node):
             self._last_frame_wall = time.monotonic()
             self._note_late(result.pair[0], came)
 
+    def _late_s(self, stamp_ns: int) -> float | None:
+        """How long after ``stamp_ns`` it is now, if LATE_FRAME_S or more (and the clocks
+        not far apart: a reset); else None."""
+        late_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
+        return late_s if LATE_FRAME_S <= late_s < CLOCKS_APART_S else None
+
     def _note_late(self, stamp_ns: int, came: str) -> None:
         """Count and log a frame complete LATE_FRAME_S or more after its stamp, naming the
         message that came last: in a long run, a slow link from the camera shows here."""
-        late_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
-        if LATE_FRAME_S <= late_s < CLOCKS_APART_S:
+        if (late_s := self._late_s(stamp_ns)) is not None:
             self.late_frames += 1
             self.warn(WarningKind.LATE_FRAME, f"frame {stamp_ns} ns complete {late_s:.1f} s "
                       f"after its stamp (its {came} came last; {self.late_frames} late so far)")
@@ -217,8 +222,7 @@ class DetectorNode(Node):
         """Log a detection published LATE_FRAME_S or more after its frame's stamp, with the
         detection's own time: with ``_note_late`` (the frame's arrival) it tells a late
         detection's wait apart from the way to its readers."""
-        late_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
-        if LATE_FRAME_S <= late_s < CLOCKS_APART_S:
+        if (late_s := self._late_s(stamp_ns)) is not None:
             self.warn(WarningKind.LATE_FRAME, f"frame {stamp_ns} ns: detection published "
                       f"{late_s:.1f} s after its stamp (detecting took {detect_s:.2f} s)")
 
