@@ -3,9 +3,18 @@
 import xml.etree.ElementTree as ET
 
 from nodes.common.runner import NodeSpec
-from nodes.common.transports import (FRAME_WRITER_TRANSPORTS, HEARTBEAT_PERIOD_S, PROFILES_ENV,
-                                     TRANSPORTS_ENV, UDP_AFTER_RESPAWN, Transports,
-                                     parse_builtin, profile_xml, size_for_frames, use_profile)
+from nodes.common.transports import (
+    FRAME_WRITER_TRANSPORTS,
+    HEARTBEAT_PERIOD_S,
+    PROFILES_ENV,
+    TRANSPORTS_ENV,
+    UDP_AFTER_RESPAWN,
+    Transports,
+    parse_builtin,
+    profile_xml,
+    size_for_frames,
+    use_profile,
+)
 from nodes.sim.node import SPEC as SIM
 
 NS = {"f": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
