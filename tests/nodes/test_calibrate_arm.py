@@ -65,7 +65,9 @@ def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_p
     assert node.routine.error == ""
     result = node.solve()
     assert result.n_frames == len(DEFAULT_PLACEMENTS) // 3 and not result.dropped_tags
-    assert result.rms_px < 0.3
+    # the routine's report in the message: a rare high residual (0.61 px once in CI) must be
+    # diagnosable from the failure alone
+    assert result.rms_px < 0.3, f"{result.report()}\n{node.routine.report()}"
     node.write(result)
     got = CameraModel.from_pose(true.intrinsics, load_camera_pose(out))
     error = table_error_mm(true, got)
