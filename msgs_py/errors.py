@@ -24,6 +24,10 @@ class MessageError(ValueError):
         self.reason = reason
         super().__init__(f"{field}: {reason} (got {_short_repr(value)})")
 
+    def __reduce__(self) -> tuple[type, tuple[str, Any, str]]:
+        """Pickled with its fields (a plan's process sends it back to the planner node)."""
+        return type(self), (self.field, self.value, self.reason)
+
 
 def _short_repr(value: Any, limit: int = 120) -> str:
     text = repr(value)

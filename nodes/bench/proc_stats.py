@@ -12,14 +12,17 @@ from pathlib import Path
 
 #: Clock ticks per second of the stat file's CPU times (getconf CLK_TCK; 100 on Linux).
 TICKS_PER_S = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
-#: Fields of /proc/<pid>/stat after the command name: state is field 3 of the file, so utime
-#: (field 14) and stime (field 15) are at 11 and 12 of what follows the name.
-_UTIME, _STIME = 11, 12
+#: Fields of /proc/<pid>/stat after the command name: state is field 3 of the file, so the
+#: parent pid (field 4), utime (14), stime (15), cutime (16) and cstime (17) are at 1, 11, 12,
+#: 13 and 14 of what follows the name. cutime/cstime: the CPU of children it has reaped.
+_PPID, _UTIME, _STIME, _CUTIME, _CSTIME = 1, 11, 12, 13, 14
 
 
 @dataclass(frozen=True, slots=True)
 class ProcSample:
-    """One process at one moment: resident memory (MB) and CPU time used so far (s)."""
+    """One process with its descendants at one moment (the planner's plans run in processes of
+    their own): resident memory (MB, summed) and CPU time used so far (s, reaped children's
+    included)."""
 
     pid: int
     rss_mb: float
@@ -41,22 +44,70 @@ def rss_mb_from_status(text: str) -> float:
     raise ValueError("no VmRSS line")
 
 
+def _fields_after_name(text: str) -> list[str]:
+    """The stat fields after the command name (field 2), which is in parentheses and may
+    itself hold spaces and parentheses: fields are counted from the last ')'."""
+    return text[text.rindex(")") + 2:].split()
+
+
 def cpu_s_from_stat(text: str, ticks_per_s: float = TICKS_PER_S) -> float:
-    """User + system CPU time (s) of a ``/proc/<pid>/stat`` text. The command name (field 2)
-    is in parentheses and may itself hold spaces and parentheses: fields are counted from the
-    last ')'."""
-    fields = text[text.rindex(")") + 2:].split()
-    return (int(fields[_UTIME]) + int(fields[_STIME])) / ticks_per_s
+    """User + system CPU time (s) of a ``/proc/<pid>/stat`` text, with that of the children
+    the process has reaped."""
+    fields = _fields_after_name(text)
+    return sum(int(fields[i]) for i in (_UTIME, _STIME, _CUTIME, _CSTIME)) / ticks_per_s
 
 
-def sample(pid: int, proc: Path = Path("/proc")) -> ProcSample | None:
-    """The process's figures now, or None when it is gone (or a zombie)."""
+def parent_pid_from_stat(text: str) -> int:
+    """The parent pid of a ``/proc/<pid>/stat`` text."""
+    return int(_fields_after_name(text)[_PPID])
+
+
+def descendants(pid: int, parents: dict[int, int]) -> list[int]:
+    """Every live descendant of ``pid``, given each process's parent (pid -> ppid)."""
+    children: dict[int, list[int]] = {}
+    for child, parent in parents.items():
+        children.setdefault(parent, []).append(child)
+    found, todo = [], list(children.get(pid, []))
+    while todo:
+        child = todo.pop()
+        found.append(child)
+        todo.extend(children.get(child, []))
+    return found
+
+
+def _parents(proc: Path) -> dict[int, int]:
+    parents = {}
+    for entry in proc.iterdir():
+        if entry.name.isdigit():
+            try:
+                parents[int(entry.name)] = parent_pid_from_stat((entry / "stat").read_text())
+            except (OSError, ValueError, IndexError):
+                continue
+    return parents
+
+
+def _one(pid: int, proc: Path) -> tuple[float, float] | None:
     try:
         status = (proc / str(pid) / "status").read_text()
         stat = (proc / str(pid) / "stat").read_text()
-        return ProcSample(pid, rss_mb_from_status(status), cpu_s_from_stat(stat))
+        return rss_mb_from_status(status), cpu_s_from_stat(stat)
     except (OSError, ValueError, IndexError):
         return None
+
+
+def sample(pid: int, proc: Path = Path("/proc"), with_descendants: bool = True
+           ) -> ProcSample | None:
+    """The figures of ``pid`` (and its live descendants) now, or None when it is gone (or a
+    zombie)."""
+    own = _one(pid, proc)
+    if own is None:
+        return None
+    rss, cpu = own
+    for child in descendants(pid, _parents(proc)) if with_descendants else []:
+        figures = _one(child, proc)
+        if figures is not None:
+            rss, cpu = rss + figures[0], cpu + figures[1]
+    return ProcSample(pid, rss, cpu)
 
 
 def cpu_used(before: ProcSample | None, after: ProcSample | None) -> float | None:

@@ -99,6 +99,12 @@ class SoakCell:
                 if proc.poll() is None}
         return {**pids, BENCH_CLIENT: os.getpid()}
 
+    def samples(self) -> dict[str, proc_stats.ProcSample | None]:
+        """Every process's figures now: a node's with its descendants (the planner plans in
+        processes of its own), the client's alone (the cell's nodes are its children)."""
+        return {name: proc_stats.sample(pid, with_descendants=name != BENCH_CLIENT)
+                for name, pid in self.pids().items()}
+
     def lay_out(self, scene: Scene, seed: int, blocks: int, density: float) -> None:
         """The sim's next scene (its random.* parameters, then /sim/reset), the detector's
         blocks forgotten, the monitor told the goal begins; back once a detection shows the
@@ -180,7 +186,7 @@ def one_goal(soak: SoakCell, goal: int, seed: int, scene: Scene, before: dict[st
     lifetime = dict(final.metrics if final is not None else
                     status.metrics if status is not None else before["lifetime"])
     counts = goal_counts(before["lifetime"], lifetime)
-    samples = {name: proc_stats.sample(pid) for name, pid in soak.pids().items()}
+    samples = soak.samples()
     inherited = fresh_start_problems(
         scene, detection, first_plan, events.unintended_contacts if events else None,
         events.blocks_lost if events else None)
@@ -243,8 +249,7 @@ def run(opts) -> list[dict[str, Any]]:
 def _shift(soak: SoakCell, seeds, scenes, opts, workdir: Path) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     soak.wait_for_scene(scenes[0])
-    before = {"lifetime": {}, "samples": {n: proc_stats.sample(p)
-                                          for n, p in soak.pids().items()}}
+    before = {"lifetime": {}, "samples": soak.samples()}
     for k, (seed, scene) in enumerate(zip(seeds, scenes, strict=True), start=1):
         if k > 1:
             soak.lay_out(scene, seed, opts.blocks, opts.density)

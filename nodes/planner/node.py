@@ -1,4 +1,5 @@
-"""``densepack-planner``: plans from the latest detection to the goal layout, on a worker thread.
+"""``densepack-planner``: plans from the latest detection to the goal layout, each plan in a
+process of its own (``child_process``: the node's memory stays flat goal after goal).
 
 Subscribes ``/blocks/detected`` (BlockPoseArray) and ``/goal_layout`` (GoalLayout, latched);
 publishes ``/plan`` (Plan, latched), ``/plan/markers`` (MarkerArray, latched) and
@@ -46,10 +47,12 @@ from msgs_py.tasks import PlanReply, PlanRequest
 from nodes.common.params import config_overrides, configs_from_parameters, declare_config
 from nodes.common.qos import LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
+from nodes.planner.child_process import ChildRunner, PlanningProcessDied
 from nodes.planner.cli import PLANNER_PARAMETERS
 from nodes.planner.config import PlannerConfig
 from nodes.planner.dispatch import check_goal, goal_kind, plan_goal, pulled_inside
 from nodes.planner.markers import plan_markers
+from nodes.planner.outcome import PlanOutcome
 from nodes.planner.unlabeled.config import UnlabeledConfig
 
 
@@ -123,8 +126,11 @@ def _failed_block(field: str, msg: PlanScene.Request) -> int | None:
 
 def answer_plan_request(msg: PlanScene.Request,
                         base: tuple[PlannerConfig, UnlabeledConfig],
-                        should_stop: Callable[[], bool]) -> PlanReply:
-    """A PlanScene request's reply: a validated plan, or a refusal naming the field."""
+                        should_stop: Callable[[], bool],
+                        plan: Callable[..., PlanOutcome] = plan_goal) -> PlanReply:
+    """A PlanScene request's reply: a validated plan, or a refusal naming the field.
+    ``plan`` plans the scene (``plan_goal``, or the node's call of it in a process of its
+    own)."""
     try:
         request: PlanRequest = plan_request_from_msg(msg)
     except MessageError as err:
@@ -138,8 +144,8 @@ def answer_plan_request(msg: PlanScene.Request,
                                  failed_field=err.field)
     try:
         check_goal(request.scene)
-        outcome = plan_goal(request.scene, config, unlabeled, uuid.uuid4().hex[:12],
-                            should_stop=should_stop)
+        outcome = plan(request.scene, config, unlabeled, uuid.uuid4().hex[:12],
+                       should_stop=should_stop)
     except MessageError as err:
         field = f"scene.goal.{err.field}" if err.field in ("yaw_exact", "labeled") else \
             f"scene.{err.field}"
@@ -147,6 +153,8 @@ def answer_plan_request(msg: PlanScene.Request,
                                  _failed_block(field, msg), field)
     except ValueError as err:
         return PlanReply.refused("invalid_scene", str(err), failed_field="scene")
+    except PlanningProcessDied as err:
+        return PlanReply.refused("no_plan", str(err))
     if not outcome.ok:
         return PlanReply.refused("no_plan", outcome.error or "no plan found",
                                  outcome.failed_block)
@@ -166,6 +174,8 @@ class PlannerNode(Node):
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()  # set on shutdown: the worker gives up planning
         self._service_busy = threading.Lock()  # one PlanScene request at a time
+        self._child = ChildRunner()  # each plan in a process of its own: a flat footprint
+        self._child.warm_up()
         self.plan_pub = self.create_publisher(PlanMsg, "/plan", LATCHED)
         self.markers_pub = self.create_publisher(MarkerArray, "/plan/markers", LATCHED)
         self.status_pub = self.create_publisher(PlannerStatusMsg, "/planner/status", LATCHED)
@@ -218,7 +228,7 @@ class PlannerNode(Node):
         else:
             try:
                 reply = answer_plan_request(request, (self.config, self.unlabeled),
-                                            self._stop.is_set)
+                                            self._stop.is_set, self._plan_in_child)
             finally:
                 self._service_busy.release()
         if reply.success:
@@ -310,9 +320,9 @@ class PlannerNode(Node):
         plan_id = uuid.uuid4().hex[:12]
         self.status(PlannerStatus("planning", plan_id=plan_id))
         try:
-            outcome = plan_goal(scene, self.config, self.unlabeled, plan_id,
-                                should_stop=self._stop.is_set)
-        except (MessageError, ValueError) as err:
+            outcome = self._plan_in_child(scene, self.config, self.unlabeled, plan_id,
+                                          should_stop=self._stop.is_set)
+        except (MessageError, ValueError, PlanningProcessDied) as err:
             self.get_logger().error(f"cannot plan: {err}")
             self.status(PlannerStatus("failed", plan_id=plan_id, last_error=str(err)))
             return None
@@ -345,6 +355,10 @@ class PlannerNode(Node):
                                   planning_time_s=outcome.planning_time_s,
                                   metrics=outcome.metrics))
         return None
+
+    def _plan_in_child(self, *args: Any, should_stop: Callable[[], bool]) -> PlanOutcome:
+        """``plan_goal(*args)`` in a process of its own (``child_process``)."""
+        return self._child.run(plan_goal, *args, should_stop=should_stop)
 
     def status(self, status: PlannerStatus) -> None:
         self.status_pub.publish(planner_status_to_msg(status, self.get_clock().now().nanoseconds))

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
 import pytest
 
 from nodes.bench.proc_stats import (
-    ProcSample,
     cpu_s_from_stat,
-    cpu_used,
+    descendants,
+    parent_pid_from_stat,
     rss_mb_from_status,
     sample,
 )
@@ -18,6 +20,9 @@ STATUS = "Name:\tpython\nVmHWM:\t  250000 kB\nVmRSS:\t  204800 kB\nThreads:\t9\n
 # a command name with a space and a parenthesis: fields count from the last ')'
 STAT = ("4242 (py (thon) x) S 1 4242 4242 0 -1 4194560 9000 0 0 0 1234 56 0 0 20 0 9 0 "
         "100 900000000 50000 18446744073709551615")
+# the same process after reaping children that used 3.00 s user and 0.40 s system
+STAT_REAPED = ("4242 (py (thon) x) S 77 4242 4242 0 -1 4194560 9000 0 0 0 1234 56 300 40 20 0 "
+               "9 0 100 900000000 50000 18446744073709551615")
 
 
 def test_rss_is_read_from_vmrss_in_megabytes():
@@ -33,14 +38,26 @@ def test_cpu_time_is_user_plus_system_ticks_counted_after_the_name():
     assert cpu_s_from_stat(STAT, ticks_per_s=100) == pytest.approx(12.90)
 
 
-def test_cpu_used_counts_a_respawned_process_from_its_start():
-    before = ProcSample(10, 100.0, 5.0)
-    assert cpu_used(before, ProcSample(10, 101.0, 7.5)) == pytest.approx(2.5)
-    assert cpu_used(before, ProcSample(11, 90.0, 1.0)) == pytest.approx(1.0)  # another pid
-    assert cpu_used(before, None) is None  # gone
+def test_cpu_time_counts_the_children_reaped_and_the_parent_is_read():
+    assert cpu_s_from_stat(STAT_REAPED, ticks_per_s=100) == pytest.approx(16.30)
+    assert parent_pid_from_stat(STAT_REAPED) == 77
 
 
-def test_this_process_is_sampled_and_a_missing_one_is_none(tmp_path):
-    me = sample(os.getpid())
-    assert me is not None and me.pid == os.getpid() and me.rss_mb > 1.0 and me.cpu_s > 0.0
-    assert sample(os.getpid(), proc=tmp_path) is None
+def test_descendants_are_found_down_the_tree_and_no_further():
+    parents = {10: 1, 11: 10, 12: 11, 13: 10, 20: 1, 21: 20}
+    assert sorted(descendants(10, parents)) == [11, 12, 13]
+    assert descendants(12, parents) == []
+
+
+def test_a_process_is_sampled_with_its_children_unless_asked_not_to():
+    child = subprocess.Popen(
+        [sys.executable, "-c", "import sys; b = b'x' * 80_000_000; print('ready', flush=True); "
+         "sys.stdin.read()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    try:
+        assert child.stdout.readline() == b"ready\n"  # its 80 MB are touched
+        alone = sample(os.getpid(), with_descendants=False)
+        whole = sample(os.getpid())
+        assert alone is not None and whole is not None
+        assert whole.rss_mb - alone.rss_mb > 80
+    finally:
+        child.communicate(b"")
