@@ -62,6 +62,8 @@ def summarise(blocks: int, fault: str, runs: list[dict[str, Any]]) -> dict[str, 
         "sim_time_per_action_median_s": statistics.median(
             [m["sim_time_s"] / m["actions_executed"] for m in runs
              if m.get("sim_time_s") and m.get("actions_executed")] or [float("nan")]),
+        # where the simulated time went, per activity, the median over the scenes
+        "sim_time_by_activity_median_s": activity_medians(runs),
         # per scene: the share of the looks after actions that needed the look pose
         "look_pose_shares": [look_pose_share(m.get("looks") or {}) for m in runs],
         "wall_time_median_s": median("wall_time_s"),
@@ -80,7 +82,16 @@ def per_scene(m: dict[str, Any]) -> dict[str, Any]:
     return {key: m.get(key) for key in (
         "seed", "success", "outcome", "actions_executed", "replans", "unintended_contacts",
         "blocks_lost", "blocks_raised_at_end", "final_pos_err_max_m", "final_yaw_err_max_deg",
-        "sim_time_s", "wall_time_s")}
+        "sim_time_s", "wall_time_s", "sim_time_by_activity_s", "looks")}
+
+
+def activity_medians(runs: list[dict[str, Any]]) -> dict[str, float]:
+    """Per activity of the runs' ``sim_time_by_activity_s`` (a run that never did it: 0 s),
+    the median simulated seconds."""
+    spent = [m.get("sim_time_by_activity_s") or {} for m in runs]
+    names = sorted({name for s in spent for name in s})
+    return {name: round(statistics.median(s.get(name, 0.0) for s in spent), 3)
+            for name in names}
 
 
 def look_pose_share(looks: dict[str, float]) -> float | None:

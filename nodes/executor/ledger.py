@@ -34,7 +34,9 @@ class TimeLedger:
 def activity_of(state: State, belief: Belief, step: Step | None) -> str:
     """What a tick in ``state`` with ``step`` playing (None: none) goes to: waiting for a
     plan, recovering, the camera check, the kind of the plan's current action (a step of
-    handling its block, while running it or moving on to it), looking, or other."""
+    handling its block, while running it or moving on to it), looking (getting out of the
+    camera's view: ``look``; at rest for the frame and its detection: ``look_wait``), or
+    other."""
     if state is State.REPLANNING:
         return "replan"
     if state is State.RECOVERING:
@@ -45,6 +47,8 @@ def activity_of(state: State, belief: Belief, step: Step | None) -> str:
             State.RUNNING, State.OBSERVING):
         action = belief.current
         return action.type if action is not None and action.block == step.block else "other"
+    if state is State.OBSERVING and step is None:
+        return "look_wait"  # at rest: the frame, or its detection, is on its way
     if state is State.OBSERVING or (step is not None and step.activity is Activity.LOOK):
         return "look"
     return "other"

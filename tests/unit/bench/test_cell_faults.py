@@ -108,8 +108,13 @@ def test_a_stray_gripper_command_succeeds_only_when_the_gripper_refused_and_name
 def test_the_row_keeps_each_scene_so_runs_split_by_seed_add_up():
     runs = [_metrics(seed=seed, success=True, notes=[], final_errors=[], actions_executed=11,
                      replans=0, unintended_contacts=seed, sim_time_s=60.0 + seed,
-                     wall_time_s=50.0, looks={}) for seed in (30, 31)]
+                     wall_time_s=50.0, looks={},
+                     sim_time_by_activity_s={"look": 2.0 + seed % 2, "pick_place": 40.0})
+            for seed in (30, 31)]
+    runs[1]["sim_time_by_activity_s"]["look_wait"] = 4.0  # the other run never waited
     row = summarise(9, "none", runs)
+    assert row["sim_time_by_activity_median_s"] == {"look": 2.5, "look_wait": 2.0,
+                                                    "pick_place": 40.0}
     assert [(s["seed"], s["unintended_contacts"], s["sim_time_s"]) for s in row["per_scene"]] \
         == [(30, 30, 90.0), (31, 31, 91.0)]
     assert row["unintended_contacts"] == 61
