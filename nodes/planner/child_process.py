@@ -10,16 +10,15 @@ A plan computed in a process forked for it returns every page when that process 
 The processes are forked by multiprocessing's fork server, started once with the planner's
 modules imported (``PRELOAD``), so a plan starts within milliseconds and the node's own DDS
 threads are never forked. A crash in the planning code (a fault in a C extension) ends that
-process with a clear error, not the node. The child gives up as a plan does on its
-``should_stop`` when the node asks it to, or when the node is gone (killed: its fork server
-exits, and the child's parent with it).
+process with a clear error, not the node. The child gives up, as a plan does on its
+``should_stop``, when the node asks it to or is gone (killed: the child sees its end of their
+connection close); the fork server exits once the node and its last child are gone.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import multiprocessing.forkserver
-import os
 import pickle
 import signal
 import time
@@ -31,6 +30,8 @@ from typing import Any
 PRELOAD = ("nodes.planner.dispatch",)
 #: How often the waiting thread looks at the node's stop flag and the child's life (s).
 POLL_S = 0.05
+#: How often the child looks for a stop from the node, or its death (s of a plan's time).
+CHILD_CHECK_S = 0.01
 #: After a stop, the child has this long (s) to give up on its own before it is killed.
 STOP_GRACE_S = 2.0
 
@@ -61,13 +62,17 @@ def sendable(err: BaseException) -> BaseException:
         return RuntimeError(f"{type(err).__name__}: {err}")
 
 
-def _child(conn: Connection, fn: Callable[..., Any], args: tuple, stop: Any) -> None:
+def _child(conn: Connection, fn: Callable[..., Any], args: tuple) -> None:
     """In the forked process: ``fn(*args, should_stop=...)``, its value or exception sent
-    back. It stops when asked, or when its parent (the fork server) is gone."""
-    parent = os.getppid()
+    back. It stops when the node says so on ``conn``, or closes it (the node is gone)."""
+    asked = {"stop": False, "checked": 0.0}
 
-    def should_stop() -> bool:
-        return stop.is_set() or os.getppid() != parent
+    def should_stop() -> bool:  # polled often by a plan: the connection is read seldom
+        now = time.monotonic()
+        if not asked["stop"] and now - asked["checked"] >= CHILD_CHECK_S:
+            asked["checked"] = now
+            asked["stop"] = conn.poll()  # a stop, or the end of the node's side
+        return asked["stop"]
 
     try:
         answer: tuple[str, Any] = ("value", fn(*args, should_stop=should_stop))
@@ -103,16 +108,15 @@ class ChildRunner:
             PlanningProcessDied: the process ended without answering, or did not give up
                 within STOP_GRACE_S of ``should_stop``.
         """
-        stop = self._ctx.Event()
-        receive, send = self._ctx.Pipe(duplex=False)
-        proc = self._ctx.Process(target=_child, args=(send, fn, args, stop), daemon=True,
+        ours, theirs = self._ctx.Pipe(duplex=True)
+        proc = self._ctx.Process(target=_child, args=(theirs, fn, args), daemon=True,
                                  name="densepack-planning")
         proc.start()
-        send.close()
+        theirs.close()
         try:
-            kind, value = self._answer(proc, receive, stop, should_stop)
+            kind, value = self._answer(proc, ours, should_stop)
         finally:
-            receive.close()
+            ours.close()
             if proc.is_alive():
                 proc.kill()
             proc.join()
@@ -122,20 +126,20 @@ class ChildRunner:
         return value
 
     @staticmethod
-    def _answer(proc: multiprocessing.process.BaseProcess, receive: Connection, stop: Any,
+    def _answer(proc: multiprocessing.process.BaseProcess, conn: Connection,
                 should_stop: Callable[[], bool] | None) -> tuple[str, Any]:
         stop_by: float | None = None
         while True:
-            if receive.poll(POLL_S):
+            if conn.poll(POLL_S):
                 try:
-                    return receive.recv()
+                    return conn.recv()
                 except EOFError:
                     proc.join(1.0)
                     raise PlanningProcessDied(
                         "the planning process ended without a plan "
                         f"({exit_description(proc.exitcode)})") from None
             if stop_by is None and should_stop is not None and should_stop():
-                stop.set()
+                conn.send("stop")
                 stop_by = time.monotonic() + STOP_GRACE_S
             if stop_by is not None and time.monotonic() > stop_by:
                 raise PlanningProcessDied(f"the planning process did not stop within "

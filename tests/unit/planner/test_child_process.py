@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from msgs_py import MessageError
-from nodes.bench.proc_stats import sample
+from nodes.bench.proc_stats import _parents, descendants, sample
 from nodes.planner.child_process import ChildRunner, PlanningProcessDied, exit_description
 
 RUNNER = ChildRunner(preload=("numpy",))
@@ -83,3 +86,36 @@ def test_exit_codes_in_words():
     assert exit_description(3) == "exit code 3"
     assert exit_description(-signal.SIGKILL) == "killed by SIGKILL"
     assert exit_description(None) == "still running"
+
+
+def test_a_killed_caller_leaves_no_planning_process_behind():
+    """The planner node killed mid-plan (SIGKILL, as the chaos benchmark does): its fork
+    server exits, and the plan's process, orphaned, gives up as on a stop."""
+    script = ("import sys, time; from tests.unit.planner.test_child_process import RUNNER, "
+              "wait_for_stop; print('start', flush=True); RUNNER.run(wait_for_stop)")
+    caller = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                              cwd=Path(__file__).parents[3])
+    assert caller.stdout.readline() == b"start\n"
+    planning = []
+    for _ in range(600):  # the plan's process is forked by the fork server
+        planning = [p for p in descendants(caller.pid, _parents(Path("/proc")))
+                    if alive(p)]
+        if len(planning) >= 3:  # fork server, resource tracker, the plan's process
+            break
+        time.sleep(0.05)
+    assert len(planning) >= 3, planning
+    caller.kill()
+    caller.wait()
+    for _ in range(600):
+        if not any(alive(p) for p in planning):
+            break
+        time.sleep(0.05)
+    assert not any(alive(p) for p in planning)
+
+
+def alive(pid: int) -> bool:
+    """Running (not gone, not a zombie waiting for its parent)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
