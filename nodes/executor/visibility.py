@@ -30,7 +30,7 @@ from nodes.executor.motion import ToolPose
 from nodes.executor.steps import Step, StepRunner
 from nodes.robot import ur10e
 from nodes.robot.kinematics import solve_tcp_ik
-from nodes.robot.silhouette import MARGIN_PX, robot_silhouette, top_square
+from nodes.robot.silhouette import MARGIN_PX, hulls_cover, robot_hulls, top_square
 
 #: The dry run's setpoints are looked at this often (s of script time).
 SAMPLE_S = 0.05
@@ -49,13 +49,15 @@ class View:
 
     def covered(self, q: Sequence[float], blocks: Mapping[int, Pose2D]) -> set[int]:
         """The blocks whose tag the arm at joints ``q`` (fingers wide open) covers, as the
-        detector judges it (the same silhouette, the same margin)."""
-        silhouette = robot_silhouette(q, GRIPPER_STROKE, self.camera.project,
-                                      lambda p: self.camera.to_camera(p)[:, 2], self.margin_px)
-        return {i for i, p in blocks.items()
-                if silhouette.covers(self.camera.project(
-                    top_square(p.x, p.y, p.theta, self.tag_size, self.block_size)),
-                    self.margin_px)}
+        detector judges it (the same solids, the same margin; ``hulls_cover``)."""
+        hulls = robot_hulls(q, GRIPPER_STROKE, self.camera.project,
+                            lambda p: self.camera.to_camera(p)[:, 2])
+        ids = list(blocks)
+        squares = [self.camera.project(top_square(blocks[i].x, blocks[i].y, blocks[i].theta,
+                                                  self.tag_size, self.block_size))
+                   for i in ids]
+        return {i for i, hit in zip(ids, hulls_cover(hulls, squares, self.margin_px),
+                                    strict=True) if hit}
 
 
 def script_samples(steps: Sequence[Step], start: ToolPose, in_safe_box: Callable[[ToolPose],

@@ -14,6 +14,7 @@ last, the gripper on the flange with x its closing axis.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -150,15 +151,24 @@ def posed_solids(q: Sequence[float], gap: float, finger_thickness: float,
 def surface_points(solid: Solid, pose: np.ndarray, segments: int = 16) -> np.ndarray:
     """(n, 3) points in ``world`` whose convex hull is the solid (a cylinder's two rims as
     ``segments``-gons circumscribing them; a box's eight corners)."""
-    if solid.kind == "box":
-        half = np.asarray(solid.dims) / 2
+    local = _local_points(solid.kind, tuple(solid.dims), segments)
+    return local @ pose[:3, :3].T + pose[:3, 3]
+
+
+@functools.lru_cache(maxsize=64)
+def _local_points(kind: str, dims: tuple[float, ...], segments: int) -> np.ndarray:
+    """``surface_points`` in the solid's own frame (the same for every pose: computed once;
+    a look's prediction poses the arm dozens of times)."""
+    if kind == "box":
+        half = np.asarray(dims) / 2
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
         local = corners * half
     else:
-        radius, length = solid.dims
+        radius, length = dims
         angles = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
         r = radius / math.cos(math.pi / segments)  # the polygon contains the circle
         rim = np.column_stack([r * np.cos(angles), r * np.sin(angles)])
         local = np.vstack([np.column_stack([rim, np.full(segments, z)])
                            for z in (-length / 2, length / 2)])
-    return local @ pose[:3, :3].T + pose[:3, 3]
+    local.flags.writeable = False
+    return local

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry import MultiPoint, Polygon
+from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from msgs_py.cell import FINGER_THICKNESS, FINGER_WIDTH
@@ -59,24 +59,54 @@ class Silhouette:
         return bool(self.region.intersects(quad))
 
 
-def robot_silhouette(q: Sequence[float], gap: float, project_fn: ProjectFn,
-                     depth_fn: Callable[[np.ndarray], np.ndarray] | None = None,
-                     margin_px: float = MARGIN_PX) -> Silhouette:
-    """The image region the arm at joints ``q`` with the fingers ``gap`` apart covers.
+def robot_hulls(q: Sequence[float], gap: float, project_fn: ProjectFn,
+                depth_fn: Callable[[np.ndarray], np.ndarray] | None = None
+                ) -> list[BaseGeometry] | None:
+    """The image of each of the robot's solids at joints ``q`` (fingers ``gap`` apart): the
+    convex hull of its projected corners; None when a point lies too near or behind the
+    camera (the robot then covers the whole image).
 
     ``depth_fn`` (world points -> their depth along the camera's axis, m) guards against
     points at or behind the camera; without it every point is taken to be in front."""
-    hulls = []
-    for solid, pose in posed_solids(q, gap, FINGER_THICKNESS, FINGER_WIDTH):
-        points = surface_points(solid, pose)
-        if depth_fn is not None and float(np.min(depth_fn(points))) < MIN_DEPTH_M:
-            return Silhouette(Polygon(), everything=True)
-        pixels = np.asarray(project_fn(points), float)
-        if not np.all(np.isfinite(pixels)):
-            return Silhouette(Polygon(), everything=True)
-        hulls.append(MultiPoint(pixels).convex_hull)
-    region = shapely.union_all(hulls).buffer(margin_px)
-    return Silhouette(region)
+    solids = [surface_points(solid, pose)
+              for solid, pose in posed_solids(q, gap, FINGER_THICKNESS, FINGER_WIDTH)]
+    points = np.concatenate(solids)  # every solid at once: one projection, one hull call
+    if depth_fn is not None and float(np.min(depth_fn(points))) < MIN_DEPTH_M:
+        return None
+    pixels = np.asarray(project_fn(points), float)
+    if not np.all(np.isfinite(pixels)):
+        return None
+    which = np.repeat(np.arange(len(solids)), [len(p) for p in solids])
+    return list(shapely.convex_hull(shapely.multipoints(pixels, indices=which)))
+
+
+def robot_silhouette(q: Sequence[float], gap: float, project_fn: ProjectFn,
+                     depth_fn: Callable[[np.ndarray], np.ndarray] | None = None,
+                     margin_px: float = MARGIN_PX) -> Silhouette:
+    """The image region the arm at joints ``q`` with the fingers ``gap`` apart covers: the
+    union of its solids' hulls (``robot_hulls``) grown by ``margin_px``."""
+    hulls = robot_hulls(q, gap, project_fn, depth_fn)
+    if hulls is None:
+        return Silhouette(Polygon(), everything=True)
+    return Silhouette(shapely.union_all(hulls).buffer(margin_px))
+
+
+def hulls_cover(hulls: list[BaseGeometry] | None, squares_px: Sequence[np.ndarray],
+                margin_px: float = MARGIN_PX) -> list[bool]:
+    """Per quadrilateral of ``squares_px`` ((4, 2) pixels each): whether a hull comes within
+    twice ``margin_px`` of it, i.e. what ``Silhouette.covers`` says with both grown by the
+    margin, without building the union and the buffers (the executor asks this for dozens
+    of arm poses before each look). Round growth, where the buffers are polygons inscribed
+    in it: at the margin's edge this says covered where ``covers`` may not, never the
+    other way. ``hulls`` None: the robot covers everything."""
+    if hulls is None:
+        return [True] * len(squares_px)
+    if not squares_px:
+        return []
+    quads = shapely.convex_hull(shapely.polygons(np.asarray(squares_px, float)))
+    near = shapely.dwithin(np.asarray(hulls, dtype=object)[:, None], quads[None, :],
+                           2.0 * margin_px)
+    return [bool(v) for v in near.any(axis=0)]
 
 
 def top_square(x: float, y: float, theta: float, side: float, z: float) -> np.ndarray:

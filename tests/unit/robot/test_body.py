@@ -5,11 +5,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from shapely.geometry import Polygon
 
 from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.robot.body import Solid, link_frames, posed_solids, surface_points
 from nodes.robot.kinematics import flange_pose, solve_tcp_ik
-from nodes.robot.silhouette import Silhouette, robot_silhouette, top_square
+from nodes.robot.silhouette import (
+    MARGIN_PX,
+    Silhouette,
+    hulls_cover,
+    robot_hulls,
+    robot_silhouette,
+    top_square,
+)
 from nodes.sim.config import HOME_JOINTS
 
 
@@ -54,3 +62,24 @@ def test_a_tag_under_the_gripper_is_covered_and_one_far_from_the_arm_is_not():
 def test_a_robot_reaching_behind_the_camera_covers_everything():
     sil = robot_silhouette(HOME_JOINTS, 0.085, overhead, depth_fn=lambda p: np.full(len(p), -1.0))
     assert sil.everything
+
+
+def test_the_quick_cover_test_agrees_with_the_silhouette_and_errs_only_towards_covered():
+    """``hulls_cover`` (the executor's prediction, asked dozens of times a look) against
+    ``Silhouette.covers`` (the detector's): the same verdict for tags on a 1 cm grid over the
+    workspace, but where a tag's edge lies within a pixel of the margin (polygonal buffers
+    against round growth), and there only ``covered``."""
+    q = solve_tcp_ik(pose_matrix([0.75, -0.05, 0.1], tool_down_quaternion(0.3)), HOME_JOINTS).q
+    hulls = robot_hulls(q, 0.085, overhead)
+    sil = robot_silhouette(q, 0.085, overhead)
+    squares = [overhead(top_square(x, y, 0.2, 0.04, 0.0508))
+               for x in np.arange(0.45, 0.96, 0.01) for y in np.arange(-0.3, 0.31, 0.01)]
+    quick = hulls_cover(hulls, squares)
+    exact = [sil.covers(s) for s in squares]
+    assert 100 < sum(exact) < len(squares) - 100  # both verdicts are tested
+    for square, fast, slow in zip(squares, quick, exact, strict=True):
+        if fast != slow:
+            assert fast and not slow
+            gap = min(h.distance(Polygon(square)) for h in hulls)
+            assert abs(gap - 2 * MARGIN_PX) < 1.0
+    assert hulls_cover(None, squares[:3]) == [True] * 3  # behind the camera: everything
