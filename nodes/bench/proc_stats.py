@@ -20,9 +20,9 @@ _PPID, _UTIME, _STIME, _CUTIME, _CSTIME = 1, 11, 12, 13, 14
 
 @dataclass(frozen=True, slots=True)
 class ProcSample:
-    """One process with its descendants at one moment (the planner's plans run in processes of
-    their own): resident memory (MB, summed) and CPU time used so far (s, reaped children's
-    included)."""
+    """One process (with its descendants, if asked: the planner's plans run in processes of
+    their own) at one moment: resident memory (MB, summed) and CPU time used so far (s,
+    reaped children's included)."""
 
     pid: int
     rss_mb: float
@@ -75,7 +75,9 @@ def descendants(pid: int, parents: dict[int, int]) -> list[int]:
     return found
 
 
-def _parents(proc: Path) -> dict[int, int]:
+def process_parents(proc: Path = Path("/proc")) -> dict[int, int]:
+    """Every live process's parent (pid -> ppid): read once for all the processes sampled
+    at one moment."""
     parents = {}
     for entry in proc.iterdir():
         if entry.name.isdigit():
@@ -95,15 +97,15 @@ def _one(pid: int, proc: Path) -> tuple[float, float] | None:
         return None
 
 
-def sample(pid: int, proc: Path = Path("/proc"), with_descendants: bool = True
+def sample(pid: int, proc: Path = Path("/proc"), parents: dict[int, int] | None = None
            ) -> ProcSample | None:
-    """The figures of ``pid`` (and its live descendants) now, or None when it is gone (or a
-    zombie)."""
+    """The figures of ``pid`` now, with those of its live descendants when ``parents``
+    (``process_parents``) is given; None when it is gone (or a zombie)."""
     own = _one(pid, proc)
     if own is None:
         return None
     rss, cpu = own
-    for child in descendants(pid, _parents(proc)) if with_descendants else []:
+    for child in descendants(pid, parents) if parents is not None else []:
         figures = _one(child, proc)
         if figures is not None:
             rss, cpu = rss + figures[0], cpu + figures[1]

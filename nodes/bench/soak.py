@@ -102,7 +102,8 @@ class SoakCell:
     def samples(self) -> dict[str, proc_stats.ProcSample | None]:
         """Every process's figures now: a node's with its descendants (the planner plans in
         processes of its own), the client's alone (the cell's nodes are its children)."""
-        return {name: proc_stats.sample(pid, with_descendants=name != BENCH_CLIENT)
+        parents = proc_stats.process_parents()
+        return {name: proc_stats.sample(pid, parents=None if name == BENCH_CLIENT else parents)
                 for name, pid in self.pids().items()}
 
     def lay_out(self, scene: Scene, seed: int, blocks: int, density: float) -> None:

@@ -12,6 +12,7 @@ from nodes.bench.proc_stats import (
     cpu_s_from_stat,
     descendants,
     parent_pid_from_stat,
+    process_parents,
     rss_mb_from_status,
     sample,
 )
@@ -55,8 +56,8 @@ def test_a_process_is_sampled_with_its_children_unless_asked_not_to():
          "sys.stdin.read()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
     try:
         assert child.stdout.readline() == b"ready\n"  # its 80 MB are touched
-        alone = sample(os.getpid(), with_descendants=False)
-        whole = sample(os.getpid())
+        alone = sample(os.getpid())
+        whole = sample(os.getpid(), parents=process_parents())
         assert alone is not None and whole is not None
         assert whole.rss_mb - alone.rss_mb > 80
     finally:

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from msgs_py import MessageError
-from nodes.bench.proc_stats import _parents, descendants, sample
+from nodes.bench.proc_stats import descendants, process_parents, sample
 from nodes.planner.child_process import ChildRunner, PlanningProcessDied, exit_description
 
 RUNNER = ChildRunner(preload=("numpy",))
@@ -98,8 +98,7 @@ def test_a_killed_caller_leaves_no_planning_process_behind():
     assert caller.stdout.readline() == b"start\n"
     planning = []
     for _ in range(600):  # the plan's process is forked by the fork server
-        planning = [p for p in descendants(caller.pid, _parents(Path("/proc")))
-                    if alive(p)]
+        planning = [p for p in descendants(caller.pid, process_parents()) if alive(p)]
         if len(planning) >= 3:  # fork server, resource tracker, the plan's process
             break
         time.sleep(0.05)
@@ -113,9 +112,7 @@ def test_a_killed_caller_leaves_no_planning_process_behind():
     assert not any(alive(p) for p in planning)
 
 
+
 def alive(pid: int) -> bool:
-    """Running (not gone, not a zombie waiting for its parent)."""
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
+    """Running: not gone, not a zombie waiting for its parent (``sample`` says None)."""
+    return sample(pid) is not None
