@@ -249,19 +249,19 @@ class ExecutorCore:
         inbox = self.inbox
         tick = self.player.advance(now, inbox.tcp, inbox.tcp_stamp, inbox.take_gaps(),
                                    inbox.gripper_reports)
-        self._out.setpoint, self._out.gripper = tick.setpoint, tick.gripper
+        out = self._out
+        out.setpoint, out.missed, out.gripper = tick.setpoint, tick.missed, tick.gripper
         fault = tick.fault
         if fault is None:
             fault, placement = faults.supervise(
                 self.supervisor, self.belief, inbox.take_readings(), self.player.finished_steps,
                 tick.gripper, now, self.state is State.RUNNING, self._here)
             if placement is not None:
-                self._out.placement = placement
+                out.placement = placement
         if isinstance(fault, GraspFault):
             if self.state is not State.STOPPING:
                 self._decide(faults.on_grasp_fault(fault, self.belief, self.supervisor,
-                                                   self.tries, self.cfg, self.report, self._out,
-                                                   now))
+                                                   self.tries, self.cfg, self.report, out, now))
                 return
         elif fault is not None:
             self._decide(faults.on_step_fault(fault, self.state, self.belief, self.player,

@@ -47,6 +47,7 @@ from msgs_py.ros import (
     planner_status_from_msg,
     stamp_to_ns,
 )
+from msgs_py.ros.fields import set_world_header
 from msgs_py.ros.image import camera_info_to_intrinsics
 from nodes.common.camera_model import CameraModel, load_camera_pose
 from nodes.common.lease_ros import LeaseClient
@@ -279,8 +280,10 @@ class ExecutorNode(Node):
         if self.gripper_control.resends != resends:
             with self.lock:
                 self.core.on_gripper_command_resent()
+        for stamp_s, missed in out.missed:  # the ticks that came late, in their order
+            self.arm_control.publish(self._setpoint_msg(missed, round(stamp_s * 1e9)))
         if out.setpoint is not None:
-            self.arm_control.publish(self._setpoint_msg(out.setpoint, now))
+            self.arm_control.publish(self._setpoint_msg(out.setpoint, now.nanoseconds))
         if out.gripper is not None:
             self.gripper_control.publish(Float64(data=float(out.gripper)))
         if out.placement is not None:
@@ -294,10 +297,9 @@ class ExecutorNode(Node):
             self._call(self.unlocker, "/arm/unlock_protective_stop")
         self._publish_status(status, now)
 
-    def _setpoint_msg(self, pose: ToolPose, now) -> PoseStamped:
+    def _setpoint_msg(self, pose: ToolPose, stamp_ns: int) -> PoseStamped:
         msg = PoseStamped()
-        msg.header.stamp = now.to_msg()
-        msg.header.frame_id = "world"
+        set_world_header(msg, stamp_ns)
         msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = pose.x, pose.y, pose.z
         q = tool_down_quaternion(pose.yaw)
         o = msg.pose.orientation

@@ -92,6 +92,8 @@ class Outputs:
     """Side effects the node must carry out after a tick."""
 
     setpoint: ToolPose | None = None
+    #: the setpoints of ticks that came too late (time s, pose), streamed before ``setpoint``
+    missed: tuple[tuple[float, ToolPose], ...] = ()
     gripper: float | None = None
     trigger_camera: bool = False
     request_replan: bool = False

@@ -140,14 +140,14 @@ class StepFault:
 
 @dataclass(frozen=True, slots=True)
 class Tick:
-    """What to publish this tick, and where the script stands (``fault``: why it cannot go
-    on)."""
+    """What to publish this tick, and where the script stands (``fault``: why it stops)."""
 
     setpoint: ToolPose
     gripper: float | None
     done: bool
     fault: StepFault | None = None
     label: str = ""
+    missed: tuple[tuple[float, ToolPose], ...] = ()  #: late ticks' (time, setpoint), in order
 
     @property
     def error(self) -> str:
