@@ -83,9 +83,12 @@ def _pick_place_parts(
         *rise_then_shape(opening, cfg, tag, action.block),
         Move(pick, cfg.travel_limits, f"{tag}: travel above", converge=False, **of),
     ]
+    descend, last_cm = settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend", action.block)
     contact: list[Step] = [
         Grip(opening, cfg.gripper_settle_s, f"{tag}: fingers open", **of),
-        *settle_onto(pick, cfg.grasp_height, cfg, f"{tag}: descend", action.block),
+        descend,
+        *close_in(opening, geo, cfg, tag, action.block),
+        last_cm,
         Grip(cfg.grip_command, cfg.gripper_settle_s, f"{tag}: grip", holds=action.block, **of),
         Move(pick, cfg.vertical_limits, f"{tag}: lift", blend=r, **of),
         Move(place, cfg.travel_limits, f"{tag}: carry", converge=False, **of),
@@ -109,6 +112,20 @@ def rise_then_shape(opening: float, cfg: ExecutorConfig, tag: str, block: int) -
         Rise(cfg.travel_height, cfg.vertical_limits, f"{tag}: rise", **of),
         Grip(opening, 0.0, f"{tag}: shape the fingers", wait=False, **of),
     ]
+
+
+def close_in(opening: float, geo: GripperGeometry, cfg: ExecutorConfig, tag: str,
+             block: int) -> list[Step]:
+    """Bring the fingers in to the release opening while the tool takes the last cm of its
+    descent onto a block to pick, so the grip closes the last millimetres only: the fingers
+    close at the 2F-85's 0.15 m/s, and from a wide pick opening that took 0.2 s at every
+    pick. Only where the fingertips are beside the block by then (below its top even with
+    the arm a whole approach distance behind its setpoints): coming in above it, a finger
+    could land on a block standing a little off."""
+    inside = release_opening(geo, cfg)
+    if inside >= opening or cfg.grasp_height + 2.0 * cfg.approach_distance >= geo.block_size:
+        return []
+    return [Grip(inside, 0.0, f"{tag}: fingers in", wait=False, **of_block(block))]
 
 
 def release_opening(geo: GripperGeometry, cfg: ExecutorConfig) -> float:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -19,6 +20,7 @@ from nodes.executor.primitives import (
     expected_after,
     park_steps,
     push_steps,
+    release_opening,
 )
 from nodes.executor.steps import Grip, Move, StepFaultKind, StepRunner
 
@@ -121,9 +123,25 @@ def test_pick_place_grips_centred_with_the_right_axis_and_places_at_the_goal():
     grips = [s for s in steps if isinstance(s, Grip)]
     assert grips[0].opening == pytest.approx(0.0508 + 2 * GEO.approach_clearance)
     assert [g.opening for g in grips if g.holds == action.block] == [CFG.grip_command]
-    before_descent = steps[steps.index(descend) - 2]  # the fingers are open before going down
+    before_descent = steps[steps.index(descend) - 3]  # the fingers are open before going down
     assert isinstance(before_descent, Grip) and before_descent.wait
     assert before_descent.opening == grips[0].opening
+    # ... and come in to the release opening, not waited for, as the last cm begins
+    closing_in = steps[steps.index(descend) - 1]
+    assert isinstance(closing_in, Grip) and not closing_in.wait
+    assert closing_in.opening == pytest.approx(release_opening(GEO, CFG))
+    assert closing_in.opening < grips[0].opening - 0.005
+
+
+def test_the_fingers_come_in_during_the_last_cm_only_when_they_are_beside_the_block():
+    """Fingertips that start the last cm above the block's top (a high grasp) keep the pick
+    opening until the grip: a finger coming in above a block standing off would land on it."""
+    action = pick()
+    high = dataclasses.replace(CFG, grasp_height=0.03)
+    for cfg, closes_in in ((CFG, True), (high, False)):
+        steps = action_steps(action, action.from_, GEO, cfg)
+        grips = [s for s in steps if isinstance(s, Grip) and s.label.endswith("fingers in")]
+        assert bool(grips) is closes_in
 
 
 def test_push_streams_along_the_line_through_the_block_centre():

@@ -182,7 +182,8 @@ class Gripper:
         tool = self.world.core.player.commanded or self.world.core.inbox.tcp
         if self.requested < self.gap - 1e-9 and self.holding is None:  # closing
             under = [b for b, p in self.world.blocks.items()
-                     if math.hypot(p.x - tool.x, p.y - tool.y) < 0.004 and tool.z < 0.03]
+                     if math.hypot(p.x - tool.x, p.y - tool.y) < 0.004 and tool.z < 0.03
+                     and self.requested < 0.0508]  # narrower than a block: on it
             self.holding = under[0] if under else None
             self.gap = 0.0508 if self.holding is not None else self.requested
             if self.holding is not None:  # the block turns with the tool from here
