@@ -39,6 +39,7 @@ from nodes.executor.motion import (
     Limits,
     LinearMove,
     ToolPose,
+    arrived,
     blend_overlap,
     braking_move,
     stopped_on_the_way_down,
@@ -69,7 +70,7 @@ class Move:
 
 @dataclass(frozen=True, slots=True)
 class Rise:
-    """Straight up (never down) to ``z`` at the current x, y, yaw."""
+    """Straight up (never down) to ``z`` at the current x, y, yaw (``motion.arrived``)."""
 
     z: float
     limits: Limits
@@ -157,17 +158,13 @@ class Tick:
 
 #: With no fresh measurement at all, give up after this many convergence timeouts.
 STALE_FACTOR = 5.0
+
+
 class StepRunner:
     """Plays a step script from ``start`` (the last commanded tool pose)."""
 
-    def __init__(
-        self,
-        steps: Sequence[Step],
-        start: ToolPose,
-        convergence_tol: float,
-        convergence_timeout_s: float,
-        in_safe_box=lambda pose: True,
-    ) -> None:
+    def __init__(self, steps: Sequence[Step], start: ToolPose, convergence_tol: float,
+                 convergence_timeout_s: float, in_safe_box=lambda pose: True) -> None:
         self.steps = list(steps)
         self.commanded = start  #: the end point of the last move begun (the nominal pose)
         self.tol = convergence_tol
@@ -316,7 +313,7 @@ class StepRunner:
         converge = step.converge if isinstance(step, Move) else not isinstance(step, Brake)
         if not converge or self._blending:
             return Tick(setpoint, None, not self._blending, label=step.label)
-        if measured is not None and measured.distance_to(move.end) <= self.tol:
+        if measured is not None and arrived(measured, move.end, self.tol, isinstance(step, Rise)):
             return Tick(move.end, None, True, label=step.label)
         late = self._measured_at - (self._t0 + move.duration)
         if late > self.timeout or t > move.duration + STALE_FACTOR * self.timeout:

@@ -14,7 +14,7 @@ from msgs_py import PickPlace, Pose2D, Push
 from msgs_py.cell import GripperGeometry
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.grip import GRIP_STALL_S, GRIP_TIMEOUT_S, GRIPPER_SILENT_S
-from nodes.executor.motion import Limits, LinearMove, ToolPose, move_duration
+from nodes.executor.motion import Limits, LinearMove, ToolPose, arrived, move_duration
 from nodes.executor.primitives import (
     action_steps,
     expected_after,
@@ -22,7 +22,7 @@ from nodes.executor.primitives import (
     push_steps,
     release_opening,
 )
-from nodes.executor.steps import Grip, Move, StepFaultKind, StepRunner
+from nodes.executor.steps import Grip, Move, Rise, StepFaultKind, StepRunner
 
 CFG = ExecutorConfig()
 GEO = GripperGeometry.from_params({})
@@ -502,3 +502,15 @@ def test_the_next_action_shapes_the_fingers_only_once_the_tool_is_up(lag):
     shape = measured_at_command[0]  # the push's first finger command
     assert shape[0] == pytest.approx(GEO.push_opening)
     assert shape[1] >= CFG.travel_height - CFG.convergence_tol
+
+
+def test_a_rise_is_done_once_the_tool_is_at_its_height():
+    """An action's rise from above its block, the tool still coming to rest there a few mm
+    behind its setpoints: at travel height already, so the rise is done at once; a rise the
+    tool is still below waits for it (fingers shaped over a block just let go close on it)."""
+    top = ToolPose(0.6, 0.1, CFG.travel_height, 0.0)
+    for measured, risen in ((top.offset(dx=-0.005), True), (top.offset(dz=-0.01), False)):
+        runner = StepRunner([Rise(CFG.travel_height, CFG.vertical_limits)], top,
+                            CFG.convergence_tol, CFG.convergence_timeout_s)
+        assert runner.update(0.0, measured).done is risen
+    assert not arrived(top.offset(dx=-0.005), top, CFG.convergence_tol)  # any other move
