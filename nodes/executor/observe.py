@@ -51,7 +51,7 @@ from nodes.executor.visibility import (
     View,
     best_moment,
     footprint,
-    look_waypoint,
+    look_waypoints,
     neighbours,
     script_samples,
 )
@@ -60,8 +60,11 @@ from nodes.executor.visibility import (
 #: for it (m), or passes it within PASSING_M.
 AT_POSE_M = 0.01
 PASSING_M = 0.05
-#: The arm rounds a look waypoint within this (m) instead of stopping on it.
-WAYPOINT_BLEND_M = 0.04
+#: Of the look waypoints with the least detour, this many are tried (the quickest way wins:
+#: 2.8 s of detours in the default run's 10 looks against 4.15 s through the first one) ...
+WAYPOINTS_TRIED = 3
+#: ... each rounded off within the first of these (m) that still shows what must be seen.
+WAYPOINT_BLENDS = (0.12, 0.04, 0.0)
 #: A failed grasp is tried again from the newly perceived pose this often, then replanned.
 GRASP_RETRIES = 2
 #: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
@@ -176,7 +179,7 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
     """After an action: head for the next action's block at once, and take the frame at the
     moment on the way that shows the blocks the next action needs judged (and most of the
     others not seen since an action near them); with no such moment, pass a point on the way
-    that shows them (``look_waypoint``); with none either, the look pose."""
+    that shows them (``via_waypoint``); with none either, the look pose."""
     action = belief.current
     start = None if action is None else belief.expected.get(action.block)
     if view is None or action is None or start is None or here is None:
@@ -205,32 +208,32 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
 def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose,
                  then: ToolPose, need: set[int], steps: list
                  ) -> tuple[list, float, list] | None:
-    """The way to the next block through the point that shows ``need`` with the least detour,
-    when the arm passes it (script s) and the script's dry-run samples; None without such a
-    point."""
+    """The quickest way to the next block through one of the WAYPOINTS_TRIED points that
+    show ``need`` with the least detour, each rounded off as widely as the rounded path still
+    shows ``need`` (WAYPOINT_BLENDS; the last: stopping on it); the way, when the arm passes
+    the point (script s) and the script's dry-run samples; None without such a point."""
     ws = belief.scene.workspace if belief.scene is not None else None
     if ws is None:
         return None
     up = here.with_z(max(here.z, cfg.travel_height))
     area = (ws.x_min - cfg.look_offset, ws.x_max, ws.y_min, ws.y_max)
-    waypoint = look_waypoint(view, up, then, belief.expected, need, area)
-    if waypoint is None:
-        return None
-    # through the waypoint without stopping where the blended path still shows ``need``;
-    # else stopping on it
     grips = [step for step in steps if isinstance(step, Grip)]
     moves = [step for step in steps if not isinstance(step, Grip | Rise)]  # risen already
-    for blend in (WAYPOINT_BLEND_M, 0.0):
-        # the fingers are shaped once the tool is up (``primitives.rise_then_shape``)
-        way = [Rise(cfg.travel_height, cfg.vertical_limits, "look: rise",
-                    activity=Activity.LOOK), *grips,
-               Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
-                    blend=blend, activity=Activity.LOOK), *moves]
-        samples = script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)
-        at = best_moment(view, samples, belief.expected, need, set())
-        if at is not None:
-            return way, at, samples
-    return None
+    best = None
+    for waypoint in look_waypoints(view, up, then, belief.expected, need, area, WAYPOINTS_TRIED):
+        for blend in WAYPOINT_BLENDS:
+            # the fingers are shaped once the tool is up (``primitives.rise_then_shape``)
+            way = [Rise(cfg.travel_height, cfg.vertical_limits, "look: rise",
+                        activity=Activity.LOOK), *grips,
+                   Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
+                        blend=blend, activity=Activity.LOOK), *moves]
+            samples = script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)
+            at = best_moment(view, samples, belief.expected, need, set())
+            if at is not None:
+                if best is None or samples[-1][0] < best[2][-1][0]:
+                    best = (way, at, samples)
+                break
+    return best
 
 
 def go_on(pending: Plan | None) -> Decision:

@@ -124,25 +124,27 @@ def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
 WAYPOINT_STEP = 0.05
 
 
-def look_waypoint(view: View, here: ToolPose, then: ToolPose, blocks: Mapping[int, Pose2D],
-                  need: set[int], area: tuple[float, float, float, float]
-                  ) -> ToolPose | None:
+def look_waypoints(view: View, here: ToolPose, then: ToolPose, blocks: Mapping[int, Pose2D],
+                   need: set[int], area: tuple[float, float, float, float], count: int
+                   ) -> list[ToolPose]:
     """Where to pass on the way from ``here`` to ``then`` (both at travel height) for the
     camera to see ``need``: of the points of a grid over ``area`` (x_min, x_max, y_min,
-    y_max) at ``here``'s height and yaw where the arm covers none of them, the one that adds
-    the least way; None when there is none."""
+    y_max) at ``here``'s height and yaw where the arm covers none of them, the ``count``
+    that add the least way (fewer where there are fewer), the least first."""
     x0, x1, y0, y1 = area
     candidates = [ToolPose(x, y, here.z, here.yaw)
                   for x in np.arange(x0, x1 + 1e-9, WAYPOINT_STEP)
                   for y in np.arange(y0, y1 + 1e-9, WAYPOINT_STEP)]
     candidates.sort(key=lambda w: here.distance_to(w) + w.distance_to(then))
     wanted = {i: blocks[i] for i in need if i in blocks}
-    q_ref = None
+    found: list[ToolPose] = []
     for w in candidates:
-        q = arm_postures([w], q_ref)[0]
+        q = arm_postures([w])[0]
         if q is not None and not view.covered(q, wanted):
-            return w
-    return None
+            found.append(w)
+            if len(found) >= count:
+                break
+    return found
 
 
 def footprint(start: Pose2D, action: PickPlace | Push, step: float = 0.025
