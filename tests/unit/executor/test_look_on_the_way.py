@@ -8,6 +8,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
 from msgs_py import BlockPose, PickPlace, Plan, Pose2D
 from msgs_py.camera import CameraIntrinsics
@@ -21,6 +22,7 @@ from nodes.executor.observe import WAYPOINTS_TRIED, via_waypoint
 from nodes.executor.primitives import hover_steps, look_pose
 from nodes.executor.states import State
 from nodes.executor.visibility import (
+    LATE_SAMPLES,
     View,
     arm_postures,
     best_moment,
@@ -200,3 +202,17 @@ def test_the_way_through_a_waypoint_is_the_quickest_of_the_points_tried(monkeypa
     monkeypatch.setattr(observe, "WAYPOINTS_TRIED", 1)
     _, _, through_first = via_waypoint(VIEW, belief, CFG, here, then, {1, 2}, steps)
     assert samples[-1][0] < through_first[-1][0]  # here: 1.05 s against 1.10 s
+
+
+def test_the_moment_picked_leaves_the_blocks_in_view_a_little_later_too():
+    """The frame comes up to a sample after the measured tool passed the moment picked (a
+    joint-state period and the trigger's way to the camera): the blocks to judge must stay
+    in view for LATE_SAMPLES samples after it. Heading from over block 1 to over block 2,
+    three samples between leave both in view: too short; four: the second of them."""
+    for far_x, moment in ((0.80, None), (0.85, 0.15)):
+        samples = [(0.05 * k, ToolPose(0.50 + 0.05 * k, 0.0, CFG.travel_height, 0.0))
+                   for k in range(9)]
+        blocks = {1: Pose2D(0.50, 0.0, 0.0), 2: Pose2D(far_x, 0.0, 0.0)}
+        at = best_moment(NearTool(), samples, blocks, {1, 2}, set())
+        assert at == (None if moment is None else pytest.approx(moment))
+    assert LATE_SAMPLES == 2
