@@ -28,6 +28,8 @@ from nodes.executor.steps import Activity, Grip, Move, Rise, Step, of_block
 #: A two-finger grasp is the same under a half turn: a cube placed a half turn from its goal
 #: yaw has its fingers where the planner checked them (a quarter turn would not).
 GRASP_SYMMETRY = math.pi
+#: A released block's faces stand this far (m) from the pads when the tool may rise.
+PADS_OFF_M = 0.002
 
 
 def tool_yaw(closing_axis_yaw: float, cfg: ExecutorConfig) -> float:
@@ -94,7 +96,8 @@ def _pick_place_parts(
         Move(place, cfg.travel_limits, f"{tag}: carry", converge=False, **of),
         *settle_onto(place, cfg.grasp_height + cfg.place_drop, cfg, f"{tag}: lower",
                      action.block),
-        Grip(release_opening(geo, cfg), cfg.gripper_settle_s, f"{tag}: release", **of),
+        Grip(release_opening(geo, cfg), cfg.gripper_settle_s, f"{tag}: release",
+             off_at=fingers_off(geo, cfg), **of),
         Move(place, cfg.vertical_limits, f"{tag}: retreat", converge=False, blend=r, **of),
     ]
     return approach, contact
@@ -134,6 +137,14 @@ def release_opening(geo: GripperGeometry, cfg: ExecutorConfig) -> float:
     opening at the place pose, and may leave the outer face of one a hair from a placed
     neighbour (a set-down short of a push line); opening less keeps it millimetres off."""
     return geo.block_size + 2.0 * min(cfg.release_clearance, geo.approach_clearance)
+
+
+def fingers_off(geo: GripperGeometry, cfg: ExecutorConfig) -> float:
+    """The gap at which a release has let its block go: the pads PADS_OFF_M off its faces
+    (at most halfway to the release opening). The tool rises from there while the fingers
+    open on: the 2F-85 slows down into its last millimetre, and waiting for the release
+    opening itself kept the tool at every place 0.1 s longer."""
+    return geo.block_size + min(2.0 * PADS_OFF_M, (release_opening(geo, cfg) - geo.block_size) / 2)
 
 
 def settle_onto(above: ToolPose, z: float, cfg: ExecutorConfig, label: str,

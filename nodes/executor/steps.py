@@ -88,7 +88,7 @@ class Grip:
     it along its other axis just before, at the same TCP (it then stands on the TCP on both
     axes). ``settle_s`` is how long to wait when no finger measurement comes (a gripper that
     reports nothing). ``wait=False`` only sends the command: the fingers move while the script
-    goes on.
+    goes on. ``off_at``: a release is done once the gap is this wide (the pads off the block).
     """
 
     opening: float
@@ -97,6 +97,7 @@ class Grip:
     holds: int | None = None
     wait: bool = True
     squares: bool = False
+    off_at: float = float("inf")
     activity: Activity = Activity.OTHER
     block: int | None = None
 
@@ -369,7 +370,8 @@ class StepRunner:
                     f"reported nothing for {silent:.0f} s (is its node running?)"), step.label)
             done = False
         else:
-            done = t >= GRIP_MIN_S and gripper_done(self._gaps, step.opening, heard)
+            done = t >= GRIP_MIN_S and (gripper_done(self._gaps, step.opening, heard)
+                                        or measured[-1][1] >= step.off_at)
         if not done and heard >= GRIP_STALL_S and opening_stalled(measured, step.opening):
             return Tick(self.commanded, gripper, False, StepFault(
                 StepFaultKind.STALLED,

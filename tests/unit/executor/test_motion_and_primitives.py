@@ -18,6 +18,7 @@ from nodes.executor.motion import Limits, LinearMove, ToolPose, arrived, move_du
 from nodes.executor.primitives import (
     action_steps,
     expected_after,
+    fingers_off,
     park_steps,
     push_steps,
     release_opening,
@@ -314,6 +315,21 @@ def test_a_release_that_pauses_on_the_block_is_not_done_until_the_fingers_are_op
 
     done, error = run_grip(opening, 0.0688)
     assert not error and done >= 0.2 + (0.0688 - 0.0508 - 0.009) / 0.15 - 0.03
+
+
+def test_a_release_is_done_once_the_pads_are_off_the_block():
+    """The 2F-85 slows down into its last millimetre (in the cell: 58.1, 58.4, 58.5, 58.7 mm
+    a report apart, opening to 58.8): a release is done at the gap that leaves its block, the
+    tool rising while the fingers open on; fingers held at the block are not released."""
+    off_at = fingers_off(GEO, CFG)
+    assert GEO.block_size < off_at < release_opening(GEO, CFG)
+    runner = StepRunner([Grip(0.0588, 0.3, "release", off_at=off_at)], HOME, 0.002, 1.0)
+    gaps = [0.0508, 0.0508, 0.0527, 0.0552, 0.0567, 0.0575, 0.0581, 0.0584, 0.0585, 0.0587]
+    done = [runner.update(0.02 * k, HOME, gaps=[(0.02 * k, g)]).done for k, g in enumerate(gaps)]
+    assert done.index(True) == next(k for k, g in enumerate(gaps) if g >= off_at)
+    held = StepRunner([Grip(0.0588, 0.3, "release", off_at=off_at)], HOME, 0.002, 1.0)
+    assert not any(held.update(0.02 * k, HOME, gaps=[(0.02 * k, 0.0512)]).done
+                   for k in range(30))
 
 
 def stalled(tick) -> bool:
