@@ -48,16 +48,6 @@ class ToolPose:
         return ToolPose(self.x + dx, self.y + dy, self.z + dz, self.yaw + dyaw)
 
 
-def arrived(measured: ToolPose, end: ToolPose, tol: float, rise: bool = False) -> bool:
-    """The measured tool has converged on a move's ``end``: within ``tol`` of it, or, for a
-    ``rise`` (straight up), at its height. A tool that travelled above a block and is still
-    coming to rest there, a servo delay behind its setpoints, is risen: the next action's
-    rise (none, by then) waited for it at every action's start, 0.1 s each."""
-    if rise:
-        return abs(measured.z - end.z) <= tol
-    return measured.distance_to(end) <= tol
-
-
 def equivalent_yaw_near(yaw: float, reference: float) -> float:
     """``yaw + k*pi`` nearest ``reference``: a two-finger grasp is symmetric under a half turn."""
     return reference + math.remainder(yaw - reference, math.pi)

@@ -39,7 +39,6 @@ from nodes.executor.motion import (
     Limits,
     LinearMove,
     ToolPose,
-    arrived,
     blend_overlap,
     braking_move,
     stopped_on_the_way_down,
@@ -70,7 +69,7 @@ class Move:
 
 @dataclass(frozen=True, slots=True)
 class Rise:
-    """Straight up (never down) to ``z`` at the current x, y, yaw (``motion.arrived``)."""
+    """Straight up (never down) to ``z`` at the current x, y, yaw."""
 
     z: float
     limits: Limits
@@ -314,7 +313,7 @@ class StepRunner:
         converge = step.converge if isinstance(step, Move) else not isinstance(step, Brake)
         if not converge or self._blending:
             return Tick(setpoint, None, not self._blending, label=step.label)
-        if measured is not None and arrived(measured, move.end, self.tol, isinstance(step, Rise)):
+        if measured is not None and measured.distance_to(move.end) <= self.tol:
             return Tick(move.end, None, True, label=step.label)
         late = self._measured_at - (self._t0 + move.duration)
         if late > self.timeout or t > move.duration + STALE_FACTOR * self.timeout:
