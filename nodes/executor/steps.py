@@ -177,7 +177,7 @@ class StepRunner:
         self._blending: list[Blending] = []
         self.gripper: float | None = None
         self.gripper_reports = False  #: see ``update``
-        self._gripper_sent = False
+        self._gripper_sent, self._before = False, None
         self._gaps: list[tuple[float, float]] = []
         self.finished_steps: list[Step] = []  #: steps that ended in the last update
 
@@ -235,7 +235,7 @@ class StepRunner:
     def _begin(self, step: Step, now: float) -> StepFault | None:
         """Start ``step``; returns why it is refused (None when it may run)."""
         self._t0 = now
-        self._gripper_sent = False
+        self._gripper_sent, self._before = False, self.gripper  # the opening commanded so far
         self._gaps = self._gaps[-1:]
         if isinstance(step, Brake):
             self._move = braking_move(self.commanded, step.velocity, step.decel)
@@ -369,7 +369,7 @@ class StepRunner:
                     f"reported nothing for {silent:.0f} s (is its node running?)"), step.label)
             done = False
         else:
-            done = t >= GRIP_MIN_S and (gripper_done(self._gaps, step.opening, heard)
+            done = t >= GRIP_MIN_S and (gripper_done(self._gaps, step.opening, heard, self._before)
                                         or measured[-1][1] >= step.off_at)
         if not done and heard >= GRIP_STALL_S and opening_stalled(measured, step.opening):
             return Tick(self.commanded, gripper, False, StepFault(

@@ -332,6 +332,22 @@ def test_a_release_is_done_once_the_pads_are_off_the_block():
                    for k in range(30))
 
 
+def test_a_grip_is_not_done_by_the_fingers_coming_to_rest_from_the_command_before_it():
+    """The fingers still coming in to 58.8 mm (sent during the descent) when the tool has
+    converged at grasp height: they stop there before the grip reaches the gripper, which
+    is not the grip stopping on a block (it was judged a miss on nothing, 16 blocks seed 7);
+    the grip is done once they stop on the block at 50.8 mm."""
+    steps = [Grip(0.0588, 0.0, "fingers in", wait=False), Grip(0.0, 0.3, "grip", holds=1)]
+    runner = StepRunner(steps, HOME, 0.002, 1.0)
+
+    def gap(t):  # at rest at 58.8 from 0.04 s; the grip's command acts from 0.14 s
+        return 0.0600 - 0.03 * min(t, 0.04) if t < 0.14 else max(0.0508, 0.0588 - 0.15 * (t - 0.14))
+
+    done_at = next(t for t in np.arange(0.0, 1.0, 0.02)
+                   if runner.update(float(t), HOME, gaps=[(float(t), gap(float(t)))]).done)
+    assert done_at >= 0.14 + (0.0588 - 0.0508) / 0.15
+
+
 def stalled(tick) -> bool:
     return tick.fault is not None and tick.fault.kind is StepFaultKind.STALLED
 
