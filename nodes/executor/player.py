@@ -96,15 +96,17 @@ class Player:
         self._finished = []
         streamed: list[tuple[float, ToolPose]] = []
         gripper: float | None = None  # the newest gripper command of the ticks played
-        for t in [*missed, now]:
-            known = t == now or (tcp_stamp is not None and tcp_stamp <= t)
+        for t in missed:  # each with the measurements taken by its time
+            known = tcp_stamp is not None and tcp_stamp <= t
             tick = self._update(t, tcp if known else None, tcp_stamp if known else None,
-                                [g for g in gaps if g[0] <= t or t == now], gripper_reports)
+                                [g for g in gaps if g[0] <= t], gripper_reports)
             gaps = [g for g in gaps if g[0] > t]
             gripper = gripper if tick.gripper is None else tick.gripper
-            if tick.fault is not None or tick.done or t == now:
-                break
+            if tick.fault is not None or tick.done:
+                return dataclasses.replace(tick, gripper=gripper, missed=tuple(streamed))
             streamed.append((t, tick.setpoint))
+        tick = self._update(now, tcp, tcp_stamp, gaps, gripper_reports)
+        gripper = gripper if tick.gripper is None else tick.gripper
         return dataclasses.replace(tick, gripper=gripper, missed=tuple(streamed))
 
     def _update(self, now: float, tcp: ToolPose | None, tcp_stamp: float | None,
