@@ -369,8 +369,10 @@ class StepRunner:
                     f"reported nothing for {silent:.0f} s (is its node running?)"), step.label)
             done = False
         else:
-            done = t >= GRIP_MIN_S and (gripper_done(self._gaps, step.opening, heard, self._before)
-                                        or measured[-1][1] >= step.off_at)
+            sent = self._before != step.opening  # none sent: nothing to wait GRIP_MIN_S for
+            done = (t >= GRIP_MIN_S or not sent) and (
+                gripper_done(self._gaps, step.opening, heard, self._before)
+                or measured[-1][1] >= step.off_at)
         if not done and heard >= GRIP_STALL_S and opening_stalled(measured, step.opening):
             return Tick(self.commanded, gripper, False, StepFault(
                 StepFaultKind.STALLED,

@@ -306,6 +306,17 @@ def test_a_grip_that_reaches_its_opening_is_done_at_once_and_one_that_never_move
     assert 0.29 <= done <= 0.35
 
 
+def test_fingers_already_at_an_opening_they_were_sent_are_done_at_once():
+    """Each action's "fingers open" waits for the opening the fingers were shaped to on the
+    way (no command sent): fingers there are done on the first report, with no wait for a
+    command to reach the gripper; fingers short of it are waited for as before."""
+    steps = [Grip(0.0688, 0.0, "shape", wait=False), Grip(0.0688, 0.3, "fingers open")]
+    runner = StepRunner(steps, HOME, 0.002, 1.0)
+    assert runner.update(0.0, HOME, gaps=[(0.0, 0.0688)]).done
+    coming = StepRunner(steps, HOME, 0.002, 1.0)
+    assert not coming.update(0.0, HOME, gaps=[(0.0, 0.0650)]).done
+
+
 def test_a_release_that_pauses_on_the_block_is_not_done_until_the_fingers_are_open():
     def opening(t):  # 50.8 -> 68.8 mm at 150 mm/s, a pad dragging on the block 0.1-0.2 s
         moved = 0.15 * max(0.0, t - 0.04)
@@ -402,8 +413,9 @@ def test_a_step_tried_again_runs_after_what_goes_before_it_then_the_rest_follows
     assert [s.label for s in runner.steps] == ["unload", "release", "retreat"]
     t, tool, labels = 0.0, HOME, []
     while not runner.finished and t < 5.0:
-        t += 0.02
-        tick = runner.update(t, tool, gaps=[(t, 0.0688)])
+        t += 0.02  # the fingers held on the block until the unload is done, then open
+        gap = 0.0509 if runner.current_label == "unload" else 0.0688
+        tick = runner.update(t, tool, gaps=[(t, gap)])
         tool = tick.setpoint
         labels.append(runner.current_label)
     assert labels.index("release") > labels.index("unload")
