@@ -210,6 +210,8 @@ class ArmCalibration:
             self._log.append(f"frame at {stamp:.2f} s: block {self.block_id} not seen")
             return
         if self.phase is Phase.LOCATE:
+            if self.commanded is None and self.tcp is None:
+                return  # the arm's pose not heard yet: a later frame starts the script
             self._log.append(f"block {self.block_id} seen at ({seen.x:.4f}, {seen.y:.4f}, "
                              f"{math.degrees(seen.theta):.1f} deg): centring it in the fingers")
             self._start_moving(self._regrip_steps(Pose2D(seen.x, seen.y, seen.theta)))
@@ -233,7 +235,11 @@ class ArmCalibration:
         if self.phase in (Phase.LOCATE, Phase.LOOK):
             if self._since == -math.inf:
                 self._since = now
-            if now - self._since > self.config.frame_timeout_s:
+            if now - self._since > self.config.frame_timeout_s and self.tcp is None and (
+                    self.commanded is None):
+                self._fail(f"no /arm/tcp_pose measurement within "
+                           f"{self.config.frame_timeout_s:.0f} s: cannot start moving")
+            elif now - self._since > self.config.frame_timeout_s:
                 what = "the block" if self.block_id is None else f"block {self.block_id}"
                 self._fail(f"no frame showing {what} within {self.config.frame_timeout_s:.0f} s"
                            f" ({self.phase.value})")
