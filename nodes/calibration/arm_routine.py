@@ -210,7 +210,7 @@ class ArmCalibration:
             self._log.append(f"frame at {stamp:.2f} s: block {self.block_id} not seen")
             return
         if self.phase is Phase.LOCATE:
-            if self.commanded is None and self.tcp is None:
+            if self._start_pose is None:
                 return  # the arm's pose not heard yet: a later frame starts the script
             self._log.append(f"block {self.block_id} seen at ({seen.x:.4f}, {seen.y:.4f}, "
                              f"{math.degrees(seen.theta):.1f} deg): centring it in the fingers")
@@ -235,14 +235,8 @@ class ArmCalibration:
         if self.phase in (Phase.LOCATE, Phase.LOOK):
             if self._since == -math.inf:
                 self._since = now
-            if now - self._since > self.config.frame_timeout_s and self.tcp is None and (
-                    self.commanded is None):
-                self._fail(f"no /arm/tcp_pose measurement within "
-                           f"{self.config.frame_timeout_s:.0f} s: cannot start moving")
-            elif now - self._since > self.config.frame_timeout_s:
-                what = "the block" if self.block_id is None else f"block {self.block_id}"
-                self._fail(f"no frame showing {what} within {self.config.frame_timeout_s:.0f} s"
-                           f" ({self.phase.value})")
+            if now - self._since > self.config.frame_timeout_s:
+                self._fail(self._no_frame_reason())
             elif now - self._asked >= FRAME_RETRY_S:
                 self._asked = now
                 out.want_frame = True
@@ -318,8 +312,21 @@ class ArmCalibration:
         near = ToolPose(to.target.x, to.target.y, self.cfg.travel_height, 0.0)
         return steps + look_steps(self.cfg, self.workspace, near)
 
+    @property
+    def _start_pose(self) -> ToolPose | None:
+        """Where a script starts: the last setpoint, else the measured tool (None: neither)."""
+        return self.commanded or self.tcp
+
+    def _no_frame_reason(self) -> str:
+        """Why the frame wait timed out: no arm pose to start from, or no frame of the block."""
+        timeout = f"{self.config.frame_timeout_s:.0f} s"
+        if self._start_pose is None:
+            return f"no /arm/tcp_pose measurement within {timeout}: cannot start moving"
+        what = "the block" if self.block_id is None else f"block {self.block_id}"
+        return f"no frame showing {what} within {timeout} ({self.phase.value})"
+
     def _start_moving(self, steps: list[Step]) -> None:
-        start = self.commanded or self.tcp
+        start = self._start_pose
         if start is None:
             self._fail("no /arm/tcp_pose measurement: cannot start moving")
             return
