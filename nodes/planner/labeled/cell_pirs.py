@@ -233,6 +233,8 @@ class CellPirs:
         goal = self.goal_pose(o, state)
         if not self._free_for(o, [goal], state, placed, region, with_goals=False)[0]:
             return None
+        if self.shuts_in(o, state, {**state, o: goal}, placed):
+            return None  # it would stay there, and the block beside it could never leave
         return goal
 
     def _free_for(self, o: int, poses: list[Pose2D], state: State, placed: frozenset[int],
