@@ -91,3 +91,21 @@ def test_a_placement_that_leaves_a_block_with_no_grasp_and_no_push_is_found():
     assert shut_in(ctx, goals, 1, after, before, {2, 3}, off_goal=[0]) == []
     # a block on its goal (not to move) is not counted
     assert shut_in(ctx, goals, 1, before, after, {2, 3}, off_goal=[]) == []
+
+
+def test_a_block_is_not_cleared_onto_its_own_goal_where_it_would_shut_a_neighbour_in():
+    # 1's goal is right beside 0, which placed blocks hold above and below: 1 standing there
+    # (as it would, unplaced, until its turn) leaves 0 no grasp and no push
+    goals = {**GOALS, 1: (C[0] + S + G, C[1])}
+    base = scene_of({2: "top", 3: "bottom"}, {0: GOALS[0]})
+    slots = tuple(GoalSlot(x, y, 0.0, b) for b, (x, y) in goals.items())
+    scene = Scene(base.workspace, S, (*base.blocks, BlockPose(1, 0.85, 0.15, 0.0)),
+                  Goal(slots=slots))
+    ctx, state = setup(scene)
+    space = CellPirs(ctx, scene.goal_assignment(), False, np.random.default_rng(0))
+    region = np.zeros((0, 4, 2))
+    assert space.clear_goal(1, state, frozenset({2, 3}), region) is None
+    assert space.shuts_in(1, state, {**state, 1: space.goal_pose(1, state)},
+                          frozenset({2, 3})) == [0]
+    # with 2 and 3 not placed (they may still move), 0 is not shut in: the goal is offered
+    assert space.clear_goal(1, state, frozenset(), region) is not None
