@@ -327,8 +327,9 @@ class Pirs:
         if not tries:
             self.fail(o, placed, "no free pose to clear it to")
         no_route = False
+        way = movable  # less a block whose clearing failed: the next route goes round it
         for pose, recurse in tries:
-            route = self.route(o, state, pose, movable)
+            route = self.route(o, state, pose, way)
             if isinstance(route, NoRoute):
                 self.fail(o, placed, f"cannot be cleared: {route.reason}")
                 no_route = True
@@ -336,9 +337,10 @@ class Pirs:
             if not route.blocked:
                 return _Result(list(route.actions), {**state, o: route.end})
             if recurse:
-                done = self._clear_way(o, pose, route, movable, state, placed, region, depth)
+                done = self._clear_way(o, pose, route, way, state, placed, region, depth)
                 if done is not None:
                     return done
+                way = way - {route.blocked[0]}
         if no_route and nudge:
             return self._clear_nudged(o, movable, state, placed, region, depth, target)
         return None
