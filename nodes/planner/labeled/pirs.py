@@ -18,7 +18,9 @@ pseudocode, all deliberate:
   fails within half the budget, the search starts again with every block movable.
 * Blocks the goal does not name stay movable obstacles for the whole search.
 * CLEAR tries the space's clearing poses in turn, and after clearing its own way retries the
-  *same* pose (the path to it was just cleared) rather than a new one.
+  *same* pose (the path to it was just cleared) rather than a new one. A block in its way
+  that could not be cleared is fixed for the routes to the poses tried after it (they go
+  round it: choosing it again fails again, after seconds of nested clears in a crowded scene).
 * Re-planning a block after a clear (line 14) keeps the regions its earlier routes swept:
   later clears stay out of all of them (the route is sampled afresh each time, and a block
   cleared out of one route's way stood in the next one's; 49 blocks at density 0.3: 4-6
