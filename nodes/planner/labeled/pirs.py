@@ -151,6 +151,7 @@ class PirsStats:
 class PirsOptions:
     probe: int = 5  # candidates routed before choosing the next block
     max_depth: int = 8  # nested CLEAR / re-plan recursion per block
+    route_round: bool = True  # CLEAR's next routes go round a block it failed to clear
 
 
 @dataclass
@@ -342,7 +343,8 @@ class Pirs:
                 done = self._clear_way(o, pose, route, way, state, placed, region, depth)
                 if done is not None:
                     return done
-                way = way - {route.blocked[0]}
+                if self.options.route_round:
+                    way = way - {route.blocked[0]}
         if no_route and nudge:
             return self._clear_nudged(o, movable, state, placed, region, depth, target)
         return None

@@ -5,7 +5,7 @@ picking a blocker that only a block it held in place could free)."""
 from __future__ import annotations
 
 from nodes.planner.budget import Budget
-from nodes.planner.labeled.pirs import NoRoute, Pirs, Route
+from nodes.planner.labeled.pirs import NoRoute, Pirs, PirsOptions, Route
 
 
 class Detour:  # a pirs.PirsSpace
@@ -60,3 +60,10 @@ def test_a_blocker_that_could_not_be_cleared_is_routed_round_for_the_next_pose()
     assert done.state[0] == "other spot"
     # the first route may hit 1; after 1 could not be cleared, the next one may not
     assert [m for b, m in space.routes if b == 0] == [frozenset({1}), frozenset()]
+
+
+def test_without_it_the_same_clear_chooses_the_blocker_again_and_fails():
+    space = Detour()
+    search = Pirs(space, frozenset({0}), frozenset({1}), Budget.of(10.0),
+                  PirsOptions(route_round=False))
+    assert search.clear(0, frozenset({1}), {0: "here", 1: "there"}, frozenset(), (), 1) is None
