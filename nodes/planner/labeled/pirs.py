@@ -303,7 +303,8 @@ class Pirs:
         shut = self.space.shuts_in(o, state, state2, placed)
         if shut:
             self.fail(o, placed, f"placing it would shut in block(s) {shut}: off their goal, "
-                      "with every grasp and push blocked by placed blocks")
+                      "every grasp and push of theirs blocked by placed blocks, the table's edge "
+                      "or the arm's reach")
             return None
         self.stats.placed_max = max(self.stats.placed_max, len(placed2))
         if not remaining:
