@@ -21,6 +21,7 @@
 * ``wedged``: movable blocks whose last free grasp a placement would take away.
 * ``walls_in``: whether a placement leaves a goal slot unfillable (``Assembly.feasible``),
   counting blocks that stand on their goal unplaced as filling it, where before it did not.
+* ``shuts_in``, ``freeing_nudges``: ``freeing``.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from nodes.planner.bounds.bound import INF, Relaxation
 from nodes.planner.geometry.context import PlanContext, State, at_pose, nearest_goal_yaw
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_int
 from nodes.planner.geometry.transfer import grasp_checks, push_checks
+from nodes.planner.labeled.freeing import freeing_nudges, shut_in
 from nodes.planner.labeled.pirs import NoRoute, Route
 from nodes.planner.labeled.roadmap import plan_route, uniform_draw
 from nodes.planner.labeled.snug import snug_poses
@@ -169,6 +171,19 @@ class CellPirs:
             return False
         return asm.feasible(self.standing(before, placed))
 
+    def shuts_in(self, block: int, before: State, after: State, placed: frozenset[int]
+                 ) -> list[int]:
+        """Blocks still to move that ``block`` placed at its pose in ``after`` leaves with no
+        grasp and no push free of the placed blocks (``freeing.shut_in``)."""
+        off = [b for b in self.goals if b not in placed and not self.at_goal(b, after)]
+        return shut_in(self.ctx, self.goals, block, before, after, placed, off)
+
+    def freeing_nudges(self, block: int, state: State, held: frozenset[int],
+                       movable: frozenset[int]) -> list[tuple[int, Route]]:
+        """Short pushes of a held neighbour that free a grasp of ``block``
+        (``freeing.freeing_nudges``)."""
+        return freeing_nudges(self.ctx, block, state, held, movable)
+
     # --- where a blocking block goes ----------------------------------------------------------
     def clearing_poses(self, block: int, state: State, placed: frozenset[int],
                        region: np.ndarray) -> list[tuple[Pose2D, bool]]:
@@ -218,6 +233,8 @@ class CellPirs:
         goal = self.goal_pose(o, state)
         if not self._free_for(o, [goal], state, placed, region, with_goals=False)[0]:
             return None
+        if self.shuts_in(o, state, {**state, o: goal}, placed):
+            return None  # it would stay there, and the block beside it could never leave
         return goal
 
     def _free_for(self, o: int, poses: list[Pose2D], state: State, placed: frozenset[int],

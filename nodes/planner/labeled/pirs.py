@@ -18,7 +18,9 @@ pseudocode, all deliberate:
   fails within half the budget, the search starts again with every block movable.
 * Blocks the goal does not name stay movable obstacles for the whole search.
 * CLEAR tries the space's clearing poses in turn, and after clearing its own way retries the
-  *same* pose (the path to it was just cleared) rather than a new one.
+  *same* pose (the path to it was just cleared) rather than a new one. A block in its way
+  that could not be cleared is fixed for the routes to the poses tried after it (they go
+  round it: choosing it again fails again, after seconds of nested clears in a crowded scene).
 * Re-planning a block after a clear (line 14) keeps the regions its earlier routes swept:
   later clears stay out of all of them (the route is sampled afresh each time, and a block
   cleared out of one route's way stood in the next one's; 49 blocks at density 0.3: 4-6
@@ -30,7 +32,13 @@ pseudocode, all deliberate:
   stand on their goal without being placed (a block cleared onto its own goal), where the
   state before it left none (``walls_in``), is a dead end: the search backtracks at once
   rather than finding out a dozen placements later that such a block, hemmed in where it
-  stands, can be neither moved nor left.
+  stands, can be neither moved nor left. So is a placement that leaves a block still to move
+  with no grasp and no push free of the placed blocks (``shuts_in``): placed blocks never
+  move again.
+* A block to clear that no route leaves where it stands, its grasps covered by blocks the
+  search holds in place (the chain of clears above it), is cleared after a short push of
+  one of those that frees a grasp (``freeing_nudges``); the chain re-plans that block's move
+  from where it then stands, as it does after every clear.
 
 Deterministic for a seed (the space draws from one generator in a fixed order). It stops
 with a failure when the budget runs out or a block's clearing nests deeper than ``max_depth``.
@@ -99,6 +107,18 @@ class PirsSpace(Protocol):
         where ``before`` left none (``placed``: the blocks placed before; the blocks standing
         on their goal count as filling their slot either way)."""
 
+    def shuts_in(self, block: int, before: State, after: State, placed: frozenset[int]
+                 ) -> list[int]:
+        """Blocks still to move that ``block`` placed (``before`` -> ``after``; ``placed``:
+        the blocks placed before it) leaves unable to move at all while the placed blocks
+        stand, where before they could."""
+
+    def freeing_nudges(self, block: int, state: State, held: frozenset[int],
+                       movable: frozenset[int]) -> list[tuple[int, Route]]:
+        """Short moves of a ``held`` block (one the search holds in place for this move, not
+        a placed one) after which ``block`` can be taken, best first: (that block, its
+        route); none where ``block`` can be taken already."""
+
     def join(self, a: Any, b: Any) -> Any:
         """The union of two regions."""
 
@@ -118,17 +138,20 @@ class PirsStats:
     clears: int = 0
     backtracks: int = 0
     placed_max: int = 0
+    nudges: int = 0  # freeing nudges of a held block tried
     failure: tuple[int, int | None, str] = (-1, None, "")  # (progress, block, reason)
 
     def as_metrics(self) -> dict[str, float]:
         return {"roadmaps": float(self.roadmaps), "clears": float(self.clears),
-                "backtracks": float(self.backtracks), "placed_max": float(self.placed_max)}
+                "backtracks": float(self.backtracks), "placed_max": float(self.placed_max),
+                "freeing_nudges": float(self.nudges)}
 
 
 @dataclass(frozen=True)
 class PirsOptions:
     probe: int = 5  # candidates routed before choosing the next block
     max_depth: int = 8  # nested CLEAR / re-plan recursion per block
+    route_round: bool = True  # CLEAR's next routes go round a block it failed to clear
 
 
 @dataclass
@@ -238,7 +261,7 @@ class Pirs:
         if self._too_deep(o, placed, depth, "clearing its way"):
             return None
         movable = remaining | self.free
-        route = self._goal_route(o, state, movable, known)
+        route = self._goal_route(o, state, movable, placed, known)
         if isinstance(route, NoRoute):
             self.fail(o, placed, f"no way to its goal: {route.reason}")
             return None
@@ -256,13 +279,15 @@ class Pirs:
         return _Result([*cleared.actions, *sub.actions], sub.state)
 
     def _goal_route(self, o: int, state: State, movable: frozenset[int],
-                    known: Route | NoRoute | None) -> Route | NoRoute:
+                    placed: frozenset[int], known: Route | NoRoute | None) -> Route | NoRoute:
         if self.space.at_goal(o, state):
             return Route((), (), 0.0, state[o])
         route = known if known is not None else self.route(
             o, state, self.space.goal_pose(o, state), movable)
         if isinstance(route, Route) and not route.blocked:
             wedged = self.space.wedged(o, route.end, state, movable)
+            if not wedged:  # one it would shut in for good: clear it while it can move
+                wedged = self.space.shuts_in(o, state, {**state, o: route.end}, placed)
             if wedged:  # clear it while it can still be grasped
                 return Route(route.actions, (wedged[0],), route.cost, route.end, route.region)
         return route
@@ -274,6 +299,12 @@ class Pirs:
         if self.space.walls_in(state, state2, placed):
             self.fail(o, placed, "placing it would wall in a goal slot of a block still to "
                       "place, with the blocks that stand on their goals")
+            return None
+        shut = self.space.shuts_in(o, state, state2, placed)
+        if shut:
+            self.fail(o, placed, f"placing it would shut in block(s) {shut}: off their goal, "
+                      "every grasp and push of theirs blocked by placed blocks, the table's edge "
+                      "or the arm's reach")
             return None
         self.stats.placed_max = max(self.stats.placed_max, len(placed2))
         if not remaining:
@@ -287,9 +318,10 @@ class Pirs:
 
     # --- Algorithm 2 ------------------------------------------------------------------------
     def clear(self, o: int, movable: frozenset[int], state: dict[int, Any],
-              placed: frozenset[int], region: Any, depth: int, target: Any = None
-              ) -> _Result | None:
-        """Move ``o`` out of the way (of ``region``), clearing its own way recursively."""
+              placed: frozenset[int], region: Any, depth: int, target: Any = None,
+              nudge: bool = True) -> _Result | None:
+        """Move ``o`` out of the way (of ``region``), clearing its own way recursively; if
+        no route leaves where it stands, after a freeing nudge of a held block (``nudge``)."""
         if self._too_deep(o, placed, depth, "clearing it"):
             return None
         self.stats.clears += 1
@@ -298,17 +330,42 @@ class Pirs:
             else self.space.clearing_poses(o, state, placed, region))
         if not tries:
             self.fail(o, placed, "no free pose to clear it to")
+        no_route = False
+        way = movable  # less a block whose clearing failed: the next route goes round it
         for pose, recurse in tries:
-            route = self.route(o, state, pose, movable)
+            route = self.route(o, state, pose, way)
             if isinstance(route, NoRoute):
                 self.fail(o, placed, f"cannot be cleared: {route.reason}")
+                no_route = True
                 continue
             if not route.blocked:
                 return _Result(list(route.actions), {**state, o: route.end})
             if recurse:
-                done = self._clear_way(o, pose, route, movable, state, placed, region, depth)
+                done = self._clear_way(o, pose, route, way, state, placed, region, depth)
                 if done is not None:
                     return done
+                if self.options.route_round:
+                    way = way - {route.blocked[0]}
+        if no_route and nudge:
+            return self._clear_nudged(o, movable, state, placed, region, depth, target)
+        return None
+
+    def _clear_nudged(self, o: int, movable: frozenset[int], state: dict[int, Any],
+                      placed: frozenset[int], region: Any, depth: int, target: Any
+                      ) -> _Result | None:
+        """Clear ``o`` after a short push of a block the search holds in place (the block
+        whose way is being cleared, or one of the chain above it) that frees a grasp of
+        ``o``: the chain's own moves would need ``o`` gone first. The nudged block's move is
+        planned again from where it then stands, as after any clear."""
+        held = frozenset(state) - movable - placed - {o}
+        if not held:
+            return None
+        for h, push in self.space.freeing_nudges(o, state, held, movable):
+            self.stats.nudges += 1
+            sub = self.clear(o, movable, {**state, h: push.end}, placed, region, depth + 1,
+                             target, nudge=False)
+            if sub is not None:
+                return _Result([*push.actions, *sub.actions], sub.state)
         return None
 
     def _clear_way(self, o: int, pose: Any, route: Route, movable: frozenset[int],

@@ -167,10 +167,15 @@ class _Attempt:
         """pIRS and the shortcut and rebuffer passes; raises PlanningFailure (search figures in
         ``metrics`` either way)."""
         goals = self.scene.goal_assignment()
+        # scenes the exact pose-set search plans first keep the paper's CLEAR: there pIRS
+        # only tries to beat that plan, and routing round a failed blocker (for crowded
+        # large scenes, where a failed chain costs seconds) made random 4 at 0.3 seed 5 longer
+        small = self.config.exact_max_blocks
         space = CellPirs(self.ctx, goals, self.scene.goal.yaw_exact, rng, self.assembly,
                          self.bound.relaxation, jitter)
         search = Pirs(space, frozenset(goals), frozenset(self.start) - frozenset(goals),
-                      budget, PirsOptions(self.config.probe, self.config.max_depth))
+                      budget, PirsOptions(self.config.probe, self.config.max_depth,
+                                          route_round=len(self.start) > small))
         keep = _kept(space, self.assembly, self.bound, self.start)
         try:
             actions, _ = search.run(self.start, keep)

@@ -57,6 +57,12 @@ class Shelf:  # a pirs.PirsSpace
     def walls_in(self, before, after, placed) -> bool:
         return False
 
+    def shuts_in(self, block, before, after, placed) -> list[int]:
+        return []
+
+    def freeing_nudges(self, block, state, held, movable) -> list:
+        return []
+
     def join(self, a, b):
         return (a or frozenset()) | (b or frozenset())
 
