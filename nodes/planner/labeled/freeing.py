@@ -30,6 +30,7 @@ import numpy as np
 
 from msgs_py import Pose2D, Push
 from msgs_py.footprint import block_corners, face_normals, grasp_finger_corners, push_corners
+from nodes.planner.bounds.frozen import PROBE_PUSH
 from nodes.planner.geometry.context import PlanContext, State
 from nodes.planner.geometry.obstacles import Obstacles, popcount
 from nodes.planner.geometry.transfer import GRASPS, grasp_checks, push_checks
@@ -41,8 +42,6 @@ from nodes.planner.labeled.roadmap import NUDGE_LENGTHS
 NEAR = 2.2
 #: Freeing nudges offered per block (best first).
 MAX_NUDGES = 3
-#: Length of the probing push (m) of ``shut_in``: ``frozen.PROBE_PUSH``.
-PROBE = 5e-3
 
 
 def _near(ctx: PlanContext, state: State, centre: Pose2D, blocks: Collection[int]
@@ -108,7 +107,7 @@ def _stuck(ctx: PlanContext, state: State, blocks: list[int], fixed: Collection[
     grasp = grasp_checks(ctx, walls, poses).fingers_ok.any(-1)
     normals = face_normals(poses[:, 2]).reshape(-1, 2)
     push, _ = push_checks(ctx, walls, np.repeat(poses, 4, axis=0), normals,
-                          np.full(len(normals), PROBE))
+                          np.full(len(normals), PROBE_PUSH))
     return ~grasp & ~push.reshape(-1, 4).any(-1)
 
 

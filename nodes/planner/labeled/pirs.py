@@ -300,7 +300,9 @@ class Pirs:
             self.fail(o, placed, "placing it would wall in a goal slot of a block still to "
                       "place, with the blocks that stand on their goals")
             return None
-        shut = self.space.shuts_in(o, state, state2, placed)
+        # a route that moves ``o`` was checked by ``_goal_route`` (its shut-in blocks are
+        # cleared first); one that leaves it standing on its goal was not
+        shut = [] if route.actions else self.space.shuts_in(o, state, state2, placed)
         if shut:
             self.fail(o, placed, f"placing it would shut in block(s) {shut}: off their goal, "
                       "every grasp and push of theirs blocked by placed blocks, the table's edge "
