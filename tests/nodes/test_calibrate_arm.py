@@ -65,9 +65,13 @@ def test_the_arm_routine_recovers_a_camera_5_mm_and_half_a_degree_off(ros, tmp_p
     assert node.routine.error == ""
     result = node.solve()
     assert result.n_frames == len(DEFAULT_PLACEMENTS) // 3 and not result.dropped_tags
-    # the routine's report in the message: a rare high residual (0.61 px once in CI) must be
-    # diagnosable from the failure alone
-    assert result.rms_px < 0.3, f"{result.report()}\n{node.routine.report()}"
+    # The residual is the tool's own gate (densepack-calibrate writes nothing above
+    # max_rms_px); the accuracy asserted below is what the routine is for. It is mostly where
+    # the block settles against the TCP at release, not the corners: with the sim's true block
+    # poses the same frames leave 0.07-0.10 px, with the TCP's 0.13-0.18 px (five runs here,
+    # the far row 0.10-0.16 mm off the TCP) and 0.31 px in two CI runs, whose cameras agreed
+    # with these to 0.6 mm. The report in the message makes a failure diagnosable alone.
+    assert result.rms_px < node.config.max_rms_px, f"{result.report()}\n{node.routine.report()}"
     node.write(result)
     got = CameraModel.from_pose(true.intrinsics, load_camera_pose(out))
     error = table_error_mm(true, got)
