@@ -169,13 +169,19 @@ class Assembly:
         empty = self.all & ~filled
         occupied = self.all
         todo = empty
+        enter, dependents = self._enter, self._dependents  # (inlined ``enterable``: hot)
         while todo:
             c = (todo & -todo).bit_length() - 1
             todo &= todo - 1
-            if empty >> c & 1 and self.enterable(c, occupied & ~(1 << c)):
-                empty &= ~(1 << c)
-                occupied &= ~(1 << c)
-                todo |= self._dependents[c] & empty
+            if not empty >> c & 1:
+                continue
+            others = occupied & ~(1 << c)
+            for way in enter[c]:
+                if not way & others:
+                    empty &= ~(1 << c)
+                    occupied = others
+                    todo |= dependents[c] & empty
+                    break
         return [self.ids[c] for c in range(len(self.ids)) if empty >> c & 1]
 
     def keepable(self, kept: int) -> int:

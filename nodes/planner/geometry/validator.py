@@ -196,8 +196,11 @@ class _Replay:
                 self.errors.append(f"end: goal slot {k} is empty")
 
 
-def validate_plan(plan: Plan, scene: Scene | None = None) -> ValidationReport:
-    """Replay ``plan`` on ``scene`` (default ``plan.scene``) and list every violation."""
+def validate_plan(plan: Plan, scene: Scene | None = None, first_error: bool = False
+                  ) -> ValidationReport:
+    """Replay ``plan`` on ``scene`` (default ``plan.scene``) and list every violation; with
+    ``first_error``, stop at the first action that has one (a pass asking only whether a
+    variant of a plan is valid rejects most variants early on)."""
     scene = scene if scene is not None else plan.scene
     if scene is None:
         return ValidationReport(("plan has no scene to replay on",), {})
@@ -208,6 +211,8 @@ def validate_plan(plan: Plan, scene: Scene | None = None) -> ValidationReport:
     replay.check_gripper()
     for k, action in enumerate(plan.actions):
         replay.step(k, action)
+        if first_error and replay.errors:
+            return ValidationReport(tuple(replay.errors), dict(replay.poses))
     tol_xy = float(plan.params.get("goal_tolerance_xy", 0.0))
     tol_yaw = float(plan.params.get("goal_tolerance_yaw", 0.0))
     if scene.goal is not None and not scene.goal.labeled:

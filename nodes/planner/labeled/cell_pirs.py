@@ -331,16 +331,15 @@ class CellPirs:
              forbid: Obstacles | None, avoid: Obstacles | None = None) -> np.ndarray:
         """The poses of ``cand`` where the block fits and one of the ``usable`` grasps can set
         it down, outside ``forbid`` and ``avoid``."""
+        ctx = self.ctx
+        for keep_off in (forbid, avoid):  # first: most draws land there in a crowded scene
+            if keep_off is not None and len(cand):
+                foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
+                cand = cand[~keep_off.query(foot[:, None])[0]]
         if not len(cand):
             return cand
-        ctx = self.ctx
-        foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
         grasps = grasp_checks(ctx, others, cand)
-        ok = grasps.block_ok & (grasps.fingers_ok & usable).any(-1)
-        for keep_off in (forbid, avoid):
-            if keep_off is not None:
-                ok &= ~keep_off.query(foot[:, None])[0]
-        return cand[ok]
+        return cand[grasps.block_ok & (grasps.fingers_ok & usable).any(-1)]
 
 
 def _footprints(ctx: PlanContext, poses: list[Pose2D]) -> np.ndarray:

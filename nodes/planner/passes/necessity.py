@@ -89,7 +89,8 @@ def _valid_from(scene: Scene, params: Mapping[str, Any], state: Mapping[int, Pos
     """Replay ``actions`` through the validator from ``state``."""
     blocks = tuple(BlockPose(b, p.x, p.y, p.theta) for b, p in sorted(state.items()))
     start = Scene(scene.workspace, scene.block_size, blocks, scene.goal, scene.version)
-    return validate_plan(Plan(actions=tuple(actions), params=dict(params), scene=start)).ok
+    return validate_plan(Plan(actions=tuple(actions), params=dict(params), scene=start),
+                         first_error=True).ok
 
 
 def drop_no_ops(scene: Scene, actions: list[Action]) -> list[Action]:

@@ -91,3 +91,17 @@ def test_missing_params_are_reported():
     sc = scene({0: (0.5, 0.0, 0.0)}, {0: (0.5, 0.0, 0.0)})
     params = dataclasses.asdict(PlannerConfig())
     assert not validate_plan(Plan(actions=(), params=params, scene=sc)).ok
+
+
+def test_first_error_stops_the_replay_at_the_first_bad_action():
+    """A pass that only asks whether a plan variant is valid stops at its first violation;
+    the full replay lists every one."""
+    sc = scene({0: (0.5, 0.0, 0.0), 1: (0.8, 0.1, 0.0)}, {0: (0.8, 0.1 + S / 2, 0.0)})
+    onto = PickPlace(0, Pose2D(0.5, 0.0, 0.0), Pose2D(0.8, 0.1 + S / 2, 0.0), 0)
+    stale = PickPlace(1, Pose2D(0.9, 0.1, 0.0), Pose2D(0.6, -0.1, 0.0), 0)  # not where 1 is
+    plan = Plan(actions=(onto, stale), params=dict(PARAMS), scene=sc)
+    full = validate_plan(plan)
+    first = validate_plan(plan, first_error=True)
+    assert any(e.startswith("action 1") for e in full.errors)
+    assert first.errors and all(e.startswith("action 0") for e in first.errors)
+    assert not first.ok
