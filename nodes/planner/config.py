@@ -89,6 +89,9 @@ class PlannerConfig:
                       "loaded machine fewer run: improve_max_s 0 makes the plan depend on the "
                       "seed alone)")
     max_depth: int = param(8, "bound on nested CLEAR / re-plan recursion per block")
+    max_backtracks: int = param(
+        40, "above exact_max_blocks, CLEAR routes round a blocker it failed to clear; a "
+        "search that backtracks more often than this starts again with the paper's CLEAR")
     clear_attempts: int = param(4, "clearing poses tried for one blocking block")
     clear_outside_path: bool = param(
         True, "option: sample clearing poses outside the blocked path (paper: uniform)")
@@ -178,8 +181,10 @@ class PlannerConfig:
         if not 0.0 <= self.eps <= 1.0 or not 0.0 <= self.eps_start <= 1.0 - self.eps:
             raise ValueError(f"need 0 <= eps ({self.eps}) and eps + eps_start "
                              f"({self.eps_start}) <= 1")
-        if self.n_samples < 0 or self.max_depth < 1 or self.clear_attempts < 1:
-            raise ValueError("n_samples must be >= 0, max_depth and clear_attempts >= 1")
+        if (self.n_samples < 0 or self.max_depth < 1 or self.clear_attempts < 1
+                or self.max_backtracks < 0):
+            raise ValueError("n_samples and max_backtracks must be >= 0, max_depth and "
+                             "clear_attempts >= 1")
         for name in SECONDS:
             if getattr(self, name) > MAX_BUDGET_S:
                 raise ValueError(f"parameter '{name}' must be at most {MAX_BUDGET_S:g} s, got "

@@ -26,6 +26,8 @@ pseudocode, all deliberate:
   cleared out of one route's way stood in the next one's; 49 blocks at density 0.3: 4-6
   actions fewer per scene).
 * Among the first ``probe`` candidates, one whose route hits no movable block goes first.
+* With ``max_backtracks``, a search that backtracks more often stops (``thrashed``), for
+  the caller to start again otherwise.
 * A placement that would take the last free grasp of a movable block (``wedged``) clears
   that block first.
 * A placement that leaves a goal slot no order can fill any more, counting the blocks that
@@ -47,89 +49,30 @@ with a failure when the budget runs out or a block's clearing nests deeper than 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 from nodes.planner.budget import Budget, OutOfTime
+from nodes.planner.labeled.pirs_space import NoRoute, PirsSpace, Route, State
 
-State = Mapping[int, Any]
-
-
-@dataclass(frozen=True)
-class Route:
-    """A path for one block: its actions, the movable blocks it hits (O_b, in order of first
-    contact), its cost, its end pose, and the region it sweeps (opaque to the search)."""
-
-    actions: tuple[Any, ...]
-    blocked: tuple[int, ...]
-    cost: float
-    end: Any
-    region: Any = None
-
-
-@dataclass(frozen=True)
-class NoRoute:
-    """Why no path exists even through movable blocks."""
-
-    reason: str
-    fixed_blockers: tuple[int, ...] = ()
-
-
-class PirsSpace(Protocol):
-    """The geometry pIRS needs."""
-
-    def at_goal(self, block: int, state: State) -> bool: ...
-
-    def goal_pose(self, block: int, state: State) -> Any:
-        """The pose to route ``block`` to for its goal (e.g. the goal yaw nearest its own)."""
-
-    def route(self, block: int, state: State, target: Any, movable: frozenset[int]
-              ) -> Route | NoRoute:
-        """Cheapest path of ``block`` to ``target``; blocks in ``movable`` may be hit."""
-
-    def order(self, blocks: Collection[int], state: State, placed: frozenset[int]
-              ) -> Iterable[int]:
-        """``blocks`` to place next, best first (may be lazy); those that must not go next
-        left out."""
-
-    def clearing_poses(self, block: int, state: State, placed: frozenset[int], region: Any
-                       ) -> list[tuple[Any, bool]]:
-        """Poses to clear ``block`` to, out of ``region``, best first, each with whether its
-        own way may be cleared recursively."""
-
-    def wedged(self, block: int, end: Any, state: State, movable: frozenset[int]
-               ) -> list[int]:
-        """Movable blocks that ``block`` standing at ``end`` would leave ungraspable."""
-
-    def walls_in(self, before: State, after: State, placed: frozenset[int]) -> bool:
-        """Whether ``after`` leaves a goal slot that can no longer be filled in any order,
-        where ``before`` left none (``placed``: the blocks placed before; the blocks standing
-        on their goal count as filling their slot either way)."""
-
-    def shuts_in(self, block: int, before: State, after: State, placed: frozenset[int]
-                 ) -> list[int]:
-        """Blocks still to move that ``block`` placed (``before`` -> ``after``; ``placed``:
-        the blocks placed before it) leaves unable to move at all while the placed blocks
-        stand, where before they could."""
-
-    def freeing_nudges(self, block: int, state: State, held: frozenset[int],
-                       movable: frozenset[int]) -> list[tuple[int, Route]]:
-        """Short moves of a ``held`` block (one the search holds in place for this move, not
-        a placed one) after which ``block`` can be taken, best first: (that block, its
-        route); none where ``block`` can be taken already."""
-
-    def join(self, a: Any, b: Any) -> Any:
-        """The union of two regions."""
+__all__ = ["NoRoute", "Pirs", "PirsOptions", "PirsSpace", "PirsStats", "PlanningFailure",
+           "Route", "State"]
 
 
 class PlanningFailure(Exception):
-    """No plan: ``block`` is the block the search could not get further with."""
+    """No plan: ``block`` is the block the search could not get further with; ``thrashed``:
+    the search stopped at ``max_backtracks``, not for want of time or of a way."""
 
-    def __init__(self, block: int | None, reason: str) -> None:
+    def __init__(self, block: int | None, reason: str, thrashed: bool = False) -> None:
         super().__init__(f"block {block}: {reason}" if block is not None else reason)
         self.block = block
         self.reason = reason
+        self.thrashed = thrashed
+
+
+class _Thrashing(Exception):
+    """The search backtracked ``max_backtracks`` times: unwinds it."""
 
 
 @dataclass
@@ -152,6 +95,7 @@ class PirsOptions:
     probe: int = 5  # candidates routed before choosing the next block
     max_depth: int = 8  # nested CLEAR / re-plan recursion per block
     route_round: bool = True  # CLEAR's next routes go round a block it failed to clear
+    max_backtracks: int | None = None  # stop (``PlanningFailure.thrashed``) after this many
 
 
 @dataclass
@@ -168,6 +112,7 @@ class Pirs:
     budget: Budget
     options: PirsOptions = field(default_factory=PirsOptions)
     stats: PirsStats = field(default_factory=PirsStats)
+    _backtracks: int = 0  #: in the current ``_search`` (``max_backtracks`` counts these)
 
     # --- top level --------------------------------------------------------------------------
     def run(self, start: State, keep: Collection[int] = ()
@@ -175,17 +120,26 @@ class Pirs:
         """Actions from ``start`` to every block on its goal; the blocks ``keep`` (on their
         goal) stay put if that succeeds within half the budget."""
         keep = frozenset(keep) & self.goals
+        self._backtracks = 0
         if keep and keep != self.goals:
             outer, self.budget = self.budget, self.budget.share(0.5)
             try:
                 result = self._search(dict(start), self.goals - keep, keep)
-            except OutOfTime:
+            except (OutOfTime, _Thrashing):
                 result = None
             self.budget = outer
             if result is not None:
                 return result
+        self._backtracks = 0
         try:
             result = self._search(dict(start), self.goals, frozenset())
+        except _Thrashing:
+            _, block, reason = self.stats.failure
+            raise PlanningFailure(block, f"the search backtracked {self._backtracks} times "
+                                  f"(max_backtracks) after placing at most "
+                                  f"{self.stats.placed_max} of {len(self.goals)} blocks"
+                                  + (f"; last failure: {reason}" if reason else ""),
+                                  thrashed=True) from None
         except OutOfTime:
             _, block, reason = self.stats.failure
             given = self.budget.deadline - self.budget.started
@@ -315,8 +269,16 @@ class Pirs:
             sub = self.pirs(o_r, remaining - {o_r}, state2, placed2, 0, known)
             if sub is not None:
                 return _Result([*route.actions, *sub.actions], sub.state)
-            self.stats.backtracks += 1
+            self._backtrack()
         return None
+
+    def _backtrack(self) -> None:
+        """Count a backtrack; raises _Thrashing past ``max_backtracks``."""
+        self.stats.backtracks += 1
+        self._backtracks += 1
+        limit = self.options.max_backtracks
+        if limit is not None and self._backtracks > limit:
+            raise _Thrashing
 
     # --- Algorithm 2 ------------------------------------------------------------------------
     def clear(self, o: int, movable: frozenset[int], state: dict[int, Any],

@@ -14,6 +14,7 @@ accept. A start that leaves a block off its goal that no grasp or push can ever 
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass, replace
 from typing import Any
@@ -166,21 +167,21 @@ class _Attempt:
               metrics: dict[str, float]) -> list[Action]:
         """pIRS and the shortcut and rebuffer passes; raises PlanningFailure (search figures in
         ``metrics`` either way)."""
-        goals = self.scene.goal_assignment()
         # scenes the exact pose-set search plans first keep the paper's CLEAR: there pIRS
         # only tries to beat that plan, and routing round a failed blocker (for crowded
-        # large scenes, where a failed chain costs seconds) made random 4 at 0.3 seed 5 longer
-        small = self.config.exact_max_blocks
-        space = CellPirs(self.ctx, goals, self.scene.goal.yaw_exact, rng, self.assembly,
-                         self.bound.relaxation, jitter)
-        search = Pirs(space, frozenset(goals), frozenset(self.start) - frozenset(goals),
-                      budget, PirsOptions(self.config.probe, self.config.max_depth,
-                                          route_round=len(self.start) > small))
-        keep = _kept(space, self.assembly, self.bound, self.start)
+        # large scenes, where a failed chain costs seconds) made random 4 at 0.3 seed 5 longer.
+        # Routing round thrashes in a few crowded scenes (49 at 0.4 seed 7: 512 backtracks in
+        # 60 s) where the paper's CLEAR plans in 14 s: past max_backtracks the search starts
+        # again that way, from the same generator state.
+        route_round = len(self.start) > self.config.exact_max_blocks
+        fallback = copy.deepcopy(rng) if route_round else None
         try:
-            actions, _ = search.run(self.start, keep)
-        finally:
-            metrics.update(search.stats.as_metrics())
+            actions = self._search(rng, jitter, budget, metrics, route_round)
+        except PlanningFailure as failure:
+            if not failure.thrashed or fallback is None:
+                raise
+            metrics["thrashed"] = 1.0
+            actions = self._search(fallback, jitter, budget, metrics, False)
         if self.config.shortcut:
             before = len(actions)
             actions = shortcut(self.ctx, self.start, actions)
@@ -194,6 +195,24 @@ class _Attempt:
             actions = reinsert(self.ctx, self.start, actions, self.valid,
                                set(self.scene.goal_assignment()))
             metrics["reinsert_saved"] = float(before - len(actions))
+        return actions
+
+    def _search(self, rng: np.random.Generator, jitter: float, budget: Budget,
+                metrics: dict[str, float], route_round: bool) -> list[Action]:
+        """pIRS's actions (search figures in ``metrics`` either way); routing round a failed
+        blocker stops at ``max_backtracks``."""
+        goals = self.scene.goal_assignment()
+        space = CellPirs(self.ctx, goals, self.scene.goal.yaw_exact, rng, self.assembly,
+                         self.bound.relaxation, jitter)
+        options = PirsOptions(self.config.probe, self.config.max_depth, route_round,
+                              self.config.max_backtracks if route_round else None)
+        search = Pirs(space, frozenset(goals), frozenset(self.start) - frozenset(goals),
+                      budget, options)
+        try:
+            actions, _ = search.run(self.start, _kept(space, self.assembly, self.bound,
+                                                       self.start))
+        finally:
+            metrics.update(search.stats.as_metrics())
         return actions
 
     def exact(self, budget: Budget, metrics: dict[str, float]) -> list[Action] | None:

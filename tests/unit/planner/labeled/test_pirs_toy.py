@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import pytest
 
 from nodes.planner.budget import Budget
-from nodes.planner.labeled.pirs import NoRoute, Pirs, PlanningFailure, Route
+from nodes.planner.labeled.pirs import NoRoute, Pirs, PirsOptions, PlanningFailure, Route
 
 Pose = tuple[str, int]  # ("shelf", depth) with depth 0 at the front, or ("table", k)
 
@@ -135,3 +135,31 @@ def test_a_second_clear_for_the_same_placement_keeps_out_of_the_first_route_too(
     (first, r1), (second, r2) = space.regions[:2]
     assert (first, second) == (1, 2)  # both stood in front of block 0's goal
     assert ("shelf", 0) in r1 and r1 <= r2  # the first route's region is kept
+
+
+@dataclass
+class FrontFirstShelf(Shelf):
+    """The shelf, offering the front slots first: a front block set down walls in the slots
+    behind it, found only a placement later, so the search backtracks."""
+
+    def order(self, blocks, state, placed) -> list[int]:
+        return sorted(blocks, key=lambda b: self.goals[b])
+
+
+def test_a_search_past_max_backtracks_stops_as_thrashed_and_unbounded_solves():
+    space = FrontFirstShelf({0: 0, 1: 1, 2: 2})
+    start = {0: ("table", 0), 1: ("table", 1), 2: ("table", 2)}
+    search = Pirs(space, frozenset(space.goals), frozenset(), Budget.of(10.0))
+    actions, end = search.run(start)
+    assert replay(space, start, actions) == end
+    assert all(space.at_goal(b, end) for b in space.goals)
+    assert search.stats.backtracks >= 2
+    limited = Pirs(space, frozenset(space.goals), frozenset(), Budget.of(10.0),
+                   PirsOptions(max_backtracks=1))
+    with pytest.raises(PlanningFailure, match="backtracked 2 times") as err:
+        limited.run(start)
+    assert err.value.thrashed
+    with pytest.raises(PlanningFailure) as out_of_ways:  # a failure for want of a way is not
+        Pirs(Shelf({0: 1}), frozenset({0}), frozenset(), Budget.of(10.0),
+             PirsOptions(max_backtracks=1)).run({0: ("table", 0), 9: ("shelf", 0)})
+    assert not out_of_ways.value.thrashed
