@@ -121,8 +121,6 @@ class Obstacles:
                     & (b[:, None, 1] < self.box[None, :, 3])
                     & (b[:, None, 3] > self.box[None, :, 1]))
             left, right = np.nonzero(near)
-            if not len(left):
-                continue
             left = left + start
             depth = penetration(flat[left], self.corners[right])
             hit = depth > DEEP
@@ -133,9 +131,6 @@ class Obstacles:
                 hit[maybe] = shared > OVERLAP_AREA_TOL
             lefts.append(left[hit])
             rights.append(right[hit])
-        if not lefts:
-            empty = np.zeros(0, dtype=np.int64)
-            return empty, empty, len(flat)
         return np.concatenate(lefts), np.concatenate(rights), len(flat)
 
     def query(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
