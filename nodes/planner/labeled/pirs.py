@@ -112,7 +112,8 @@ class Pirs:
     budget: Budget
     options: PirsOptions = field(default_factory=PirsOptions)
     stats: PirsStats = field(default_factory=PirsStats)
-    _backtracks: int = 0  #: in the current ``_search`` (``max_backtracks`` counts these)
+    #: backtracks in the current ``_search`` (``max_backtracks`` counts these)
+    _backtracks: int = field(default=0, init=False, repr=False)
 
     # --- top level --------------------------------------------------------------------------
     def run(self, start: State, keep: Collection[int] = ()
