@@ -332,10 +332,11 @@ class CellPirs:
         """The poses of ``cand`` where the block fits and one of the ``usable`` grasps can set
         it down, outside ``forbid`` and ``avoid``."""
         ctx = self.ctx
+        foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
         for keep_off in (forbid, avoid):  # first: most draws land there in a crowded scene
             if keep_off is not None and len(cand):
-                foot = block_corners(cand[:, 0], cand[:, 1], cand[:, 2], ctx.geom.block_size)
-                cand = cand[~keep_off.query(foot[:, None])[0]]
+                outside = ~keep_off.query(foot[:, None])[0]
+                cand, foot = cand[outside], foot[outside]
         if not len(cand):
             return cand
         grasps = grasp_checks(ctx, others, cand)

@@ -121,7 +121,6 @@ class Pirs:
         """Actions from ``start`` to every block on its goal; the blocks ``keep`` (on their
         goal) stay put if that succeeds within half the budget."""
         keep = frozenset(keep) & self.goals
-        self._backtracks = 0
         if keep and keep != self.goals:
             outer, self.budget = self.budget, self.budget.share(0.5)
             try:
@@ -131,7 +130,6 @@ class Pirs:
             self.budget = outer
             if result is not None:
                 return result
-        self._backtracks = 0
         try:
             result = self._search(dict(start), self.goals, frozenset())
         except _Thrashing:
@@ -156,6 +154,7 @@ class Pirs:
 
     def _search(self, start: dict[int, Any], targets: frozenset[int], placed: frozenset[int]
                 ) -> tuple[list[Any], dict[int, Any]] | None:
+        self._backtracks = 0
         if not targets:
             return [], start
         for o in self.space.order(targets, start, placed):
