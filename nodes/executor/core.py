@@ -18,7 +18,7 @@ fault are dispatched the same way.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from msgs_py import BlockSet, ExecutorStatus, Plan
@@ -45,7 +45,6 @@ from nodes.executor.decisions import (
     Stop,
     Stopped,
     TakeFrame,
-    Then,
     VerifyGoal,
 )
 from nodes.executor.faults import ArmHold
@@ -97,7 +96,8 @@ class ExecutorCore:
         self._handlers: dict[type, Callable[[Any], Decision | None]] = {
             Observe: lambda d: observe.observe(d, self.camera, self.belief, cfg, self._here),
             LookOnTheWay: lambda d: observe.look_on_the_way(
-                self.camera, self.belief, cfg, self.view, self._here, self._now, self.report),
+                self.camera, self.belief, cfg, self.view, self._here, self._now, self.report,
+                self.inbox.arm_joints),
             LookHere: lambda d: observe.look_here(d, self.camera, self._now),
             NextAction: lambda d: act.next_action(self.belief, cfg, self.report),
             StartPlan: lambda d: replan.start_plan(d, self.belief, self.planner, self.tries, cfg,
@@ -124,6 +124,9 @@ class ExecutorCore:
     # --- inputs (ExecutorInputs) --------------------------------------------------------------
     def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
         self.inbox.on_tcp(pose, stamp_s)
+
+    def on_arm_joints(self, q: Sequence[float]) -> None:
+        self.inbox.arm_joints = tuple(q)
 
     def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
         self.inbox.on_finger_gap(gap, stamp_s)
@@ -269,14 +272,11 @@ class ExecutorCore:
                                               self.report))
             return
         if tick.done:
-            self._finished(self.player.finish())
-
-    def _finished(self, then: Then) -> None:
-        self._decide(self._on_end[type(then)](then))
+            then = self.player.finish()
+            self._decide(self._on_end[type(then)](then))
 
     def _arm_held(self) -> None:
-        """While held: stream nothing (a protective stop: ask for the unlock). Free again: go
-        on from where the arm stands."""
+        """Held: stream nothing (a protective stop: ask for the unlock); free: go on from here."""
         if self.guard.reason is not None:
             self.guard.while_held(self._now, self.report, self._out)
             return

@@ -9,6 +9,7 @@ what the arm and the gripper last reported for the tick to read.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -22,6 +23,10 @@ class ExecutorInputs(Protocol):
 
     def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
         """The arm: the measured TCP, taken at ``stamp_s`` (ROS time, s; None: now)."""
+
+    def on_arm_joints(self, q: Sequence[float]) -> None:
+        """The arm driver's joint states (kinematic order, rad): which of the IK's branches
+        the arm is on, for predicting what it covers in the camera's view."""
 
     def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
         """The gripper's finger joints: the gap between the pads (m) at ``stamp_s``."""
@@ -71,6 +76,7 @@ class Inbox:
 
     tcp: ToolPose | None = None
     tcp_stamp: float | None = None  #: ROS time (s) the TCP was measured at (None: now)
+    arm_joints: tuple[float, ...] | None = None  #: the latest (kinematic order, rad)
     finger_gap: float | None = None
     gaps: list[tuple[float, float]] = field(default_factory=list)  #: (time s, gap m)
     readings: list[GripperStatus] = field(default_factory=list)

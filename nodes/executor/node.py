@@ -31,11 +31,11 @@ from densepack_interfaces.msg import PlannerStatus as PlannerStatusMsg
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
-from sensor_msgs.msg import CameraInfo
+from sensor_msgs.msg import CameraInfo, JointState
 from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
-from msgs_py import ExecutorStatus, MessageError
+from msgs_py import ExecutorStatus, MessageError, drivers
 from msgs_py.camera import CameraIntrinsics, CameraPose
 from msgs_py.ros import (
     arm_status_from_msg,
@@ -50,12 +50,13 @@ from msgs_py.ros import (
 from msgs_py.ros.fields import set_world_header
 from msgs_py.ros.image import camera_info_to_intrinsics
 from nodes.common.camera_model import CameraModel, load_camera_pose
+from nodes.common.joints import values_by_name
 from nodes.common.lease_ros import LeaseClient
 from nodes.common.params import declare_config
 from nodes.common.paths import config_path
 from nodes.common.qos import CAMERA, LATCHED, RELIABLE
 from nodes.common.runner import NodeSpec, run_node
-from nodes.common.standard_msgs import stamp_seconds, tool_pose_values
+from nodes.common.standard_msgs import joint_state_values, stamp_seconds, tool_pose_values
 from nodes.common.transforms import tool_down_quaternion
 from nodes.executor.arm_watch import ArmWatch
 from nodes.executor.config import ExecutorConfig
@@ -64,6 +65,7 @@ from nodes.executor.motion import ToolPose
 from nodes.executor.rearrange import RearrangeServer
 from nodes.executor.states import CONTROL_STATES
 from nodes.executor.visibility import View
+from nodes.robot import ur10e
 
 TOPICS = """\
 subscribes: /plan (densepack_interfaces/Plan, latched),
@@ -71,6 +73,8 @@ subscribes: /plan (densepack_interfaces/Plan, latched),
             /planner/status (densepack_interfaces/PlannerStatus, latched),
             /arm/tcp_pose (geometry_msgs/PoseStamped: the arm node's, from the joints),
             /arm/status (densepack_interfaces/ArmStatus, latched: can the arm move),
+            /joint_states (sensor_msgs/JointState, the arm driver's: its IK branch, to
+            predict what it covers; with look_while_moving),
             /gripper/status (densepack_interfaces/GripperStatus: grasp supervision),
             /camera/camera_info (sensor_msgs/CameraInfo: a frame was taken; the lens, to
             predict what the arm covers), /detector/calibration (diagnostic_msgs/
@@ -121,6 +125,9 @@ class ExecutorNode(Node):
         self.render_pub = self.create_publisher(Header, "/sim/render_request", RELIABLE)
         self._frame_after_ns: int | None = None  # a frame taken since then is the look's
         self._camera_pose = self._load_camera_pose() if self.config.look_while_moving else None
+        if self.config.look_while_moving:
+            self.create_subscription(JointState, drivers.JOINT_STATES, self.on_joint_state,
+                                     RELIABLE)
         self._intrinsics: CameraIntrinsics | None = None
         self.placement_pub = self.create_publisher(Placement, "/executor/placements", RELIABLE)
         self.create_subscription(PlannerStatusMsg, "/planner/status", self.on_planner_status,
@@ -167,6 +174,14 @@ class ExecutorNode(Node):
         with self.lock:
             self.arm_watch.on_tcp()
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
+
+    def on_joint_state(self, msg: JointState) -> None:
+        """The arm driver's joint states (any order, by name; other joints' are ignored)."""
+        values = self._decoded(msg, joint_state_values, drivers.JOINT_STATES)
+        q = None if values is None else values_by_name(values[0], values[1], ur10e.ARM_JOINTS)[0]
+        if q is not None:
+            with self.lock:
+                self.core.on_arm_joints(q)
 
     def on_planner_status(self, msg: PlannerStatusMsg) -> None:
         status = self._decoded(msg, planner_status_from_msg, "/planner/status")

@@ -18,6 +18,7 @@ looks now and then for the planner.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from msgs_py import BlockSet, Plan
@@ -175,11 +176,12 @@ def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
 
 
 def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: View | None,
-                    here: ToolPose | None, now: float, report: Report) -> Decision:
+                    here: ToolPose | None, now: float, report: Report,
+                    arm_joints: Sequence[float] | None = None) -> Decision:
     """After an action: head for the next action's block at once, and take the frame at the
-    moment on the way that shows the blocks the next action needs judged (and most of the
-    others not seen since an action near them); with no such moment, pass a point on the way
-    that shows them (``via_waypoint``); with none either, the look pose."""
+    moment on the way (the arm's postures from ``arm_joints``, its branch) that shows the
+    blocks the next action needs judged (and most of the others not seen since an action near
+    them); with none, pass a point that shows them (``via_waypoint``); else the look pose."""
     action = belief.current
     start = None if action is None else belief.expected.get(action.block)
     if view is None or action is None or start is None or here is None:
@@ -189,11 +191,11 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
                         belief.turn_period)
     need = blocks_to_judge(belief, cfg)
     samples = script_samples(steps, here, cfg.in_safe_box, cfg.convergence_tol)
-    at = best_moment(view, samples, belief.expected, need, belief.unverified - need)
+    at = best_moment(view, samples, belief.expected, need, belief.unverified - need, arm_joints)
     if at is not None:
         report.count("looks_on_the_way")
     else:
-        detour = via_waypoint(view, belief, cfg, here, samples[-1][1], need, steps)
+        detour = via_waypoint(view, belief, cfg, here, samples[-1][1], need, steps, arm_joints)
         if detour is None:
             report.count("looks_from_look_pose")
             return Observe(Purpose.AFTER_ACTION, near=True)
@@ -206,8 +208,8 @@ def look_on_the_way(camera: Camera, belief: Belief, cfg: ExecutorConfig, view: V
 
 
 def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose,
-                 then: ToolPose, need: set[int], steps: list
-                 ) -> tuple[list, float, list] | None:
+                 then: ToolPose, need: set[int], steps: list,
+                 arm_joints: Sequence[float] | None = None) -> tuple[list, float, list] | None:
     """The quickest way to the next block through one of the WAYPOINTS_TRIED points that
     show ``need`` with the least detour, each rounded off as widely as the rounded path still
     shows ``need`` (WAYPOINT_BLENDS; the last: stopping on it); the way, when the arm passes
@@ -220,7 +222,8 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
     grips = [step for step in steps if isinstance(step, Grip)]
     moves = [step for step in steps if not isinstance(step, Grip | Rise)]  # risen already
     best = None
-    for waypoint in look_waypoints(view, up, then, belief.expected, need, area, WAYPOINTS_TRIED):
+    for waypoint in look_waypoints(view, up, then, belief.expected, need, area, WAYPOINTS_TRIED,
+                                   arm_joints):
         for blend in WAYPOINT_BLENDS:
             # the fingers are shaped once the tool is up (``primitives.rise_then_shape``)
             way = [Rise(cfg.travel_height, cfg.vertical_limits, "look: rise",
@@ -228,7 +231,7 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
                    Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
                         blend=blend, activity=Activity.LOOK), *moves]
             samples = script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)
-            at = best_moment(view, samples, belief.expected, need, set())
+            at = best_moment(view, samples, belief.expected, need, set(), arm_joints)
             if at is not None:
                 if best is None or samples[-1][0] < best[2][-1][0]:
                     best = (way, at, samples)

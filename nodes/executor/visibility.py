@@ -3,11 +3,12 @@
 After an action the executor judges the world from a frame taken while the arm already
 travels to the next block (``observe``). Which moment: the executor knows the script it is
 about to play, so it plays it dry (``script_samples``: the tool poses the setpoints will
-take, every ``SAMPLE_S``), puts the arm into each pose (the UR10e's IK, on the branch the arm
-works on), and asks the robot's silhouette (``nodes.robot.silhouette``) which top faces of
-the blocks it covers. The frame is taken at the sample that covers none of the blocks the
-next action needs judged and the fewest of the others not yet seen since an action near them
-(``best_moment``); with none such, the arm has to look from beside the workspace.
+take, every ``SAMPLE_S``), puts the arm into each pose (the UR10e's IK, on the branch of the
+joints the arm reported last), and asks the robot's silhouette (``nodes.robot.silhouette``)
+which top faces of the blocks it covers. The frame is taken at the sample that covers none
+of the blocks the next action needs judged and the fewest of the others not yet seen since an
+action near them (``best_moment``); with none such, the arm has to look from beside the
+workspace.
 
 The detector says what the robot really covered in the frame it took (its joint states at
 the frame's stamp); this prediction only picks the moment, so it may be rough: the camera
@@ -84,7 +85,9 @@ def script_samples(steps: Sequence[Step], start: ToolPose, in_safe_box: Callable
 def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = None
                  ) -> list[np.ndarray | None]:
     """The arm's joints at each tool pose (None where the IK finds none), each solved
-    nearest the one before, from the branch the arm works on."""
+    nearest the one before, from ``q_start``: the joints the arm has now (the arm node solves
+    each setpoint nearest the joints before it, so it keeps its branch; one that left the
+    working branch on a far reach stays on the other), else the branch the arm works on."""
     q_ref = np.asarray(ur10e.WORKING_BRANCH_JOINTS if q_start is None else q_start, float)
     out: list[np.ndarray | None] = []
     for pose in poses:
@@ -96,17 +99,18 @@ def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = No
 
 
 def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
-                blocks: Mapping[int, Pose2D], need: set[int], wanted: set[int]
-                ) -> float | None:
+                blocks: Mapping[int, Pose2D], need: set[int], wanted: set[int],
+                q_start: Sequence[float] | None = None) -> float | None:
     """The sample time at which the arm covers none of ``need``, nor at the sample before it
     and the LATE_SAMPLES after it (the frame is taken when the measured tool passes the pose,
     a joint-state period and the trigger's way to the camera later: up to 48 mm further at
     travel speed; frames taken that late covered a block to judge, the look pose then, in 10
     of 103 frames on the way in ten 9-block scenes), and the fewest of ``wanted`` (the
     earliest of those), their poses in ``blocks``; None if it covers one of ``need`` around
-    every sample, or, with nothing needed, every one of ``wanted`` at every sample."""
+    every sample, or, with nothing needed, every one of ``wanted`` at every sample. The arm's
+    postures are chained from ``q_start`` (``arm_postures``)."""
     looked = {i: blocks[i] for i in need | wanted if i in blocks}
-    postures = arm_postures([pose for _, pose in samples])
+    postures = arm_postures([pose for _, pose in samples], q_start)
     covered = [None if q is None else view.covered(q, looked) for q in postures]
     best: tuple[int, float] | None = None
     for k, (t, _) in enumerate(samples):
@@ -129,12 +133,13 @@ WAYPOINT_STEP = 0.05
 
 
 def look_waypoints(view: View, here: ToolPose, then: ToolPose, blocks: Mapping[int, Pose2D],
-                   need: set[int], area: tuple[float, float, float, float], count: int
-                   ) -> list[ToolPose]:
+                   need: set[int], area: tuple[float, float, float, float], count: int,
+                   q_start: Sequence[float] | None = None) -> list[ToolPose]:
     """Where to pass on the way from ``here`` to ``then`` (both at travel height) for the
     camera to see ``need``: of the points of a grid over ``area`` (x_min, x_max, y_min,
     y_max) at ``here``'s height and yaw where the arm covers none of them, the ``count``
-    that add the least way (fewer where there are fewer), the least first."""
+    that add the least way (fewer where there are fewer), the least first; the arm's posture
+    at each on the branch of ``q_start`` (``arm_postures``)."""
     x0, x1, y0, y1 = area
     candidates = [ToolPose(x, y, here.z, here.yaw)
                   for x in np.arange(x0, x1 + 1e-9, WAYPOINT_STEP)
@@ -143,7 +148,7 @@ def look_waypoints(view: View, here: ToolPose, then: ToolPose, blocks: Mapping[i
     wanted = {i: blocks[i] for i in need if i in blocks}
     found: list[ToolPose] = []
     for w in candidates:
-        q = arm_postures([w])[0]
+        q = arm_postures([w], q_start)[0]
         if q is not None and not view.covered(q, wanted):
             found.append(w)
             if len(found) >= count:

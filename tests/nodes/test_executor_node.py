@@ -18,7 +18,7 @@ from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import CameraInfo
+from sensor_msgs.msg import CameraInfo, JointState
 from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
@@ -243,10 +243,14 @@ def test_malformed_messages_on_every_subscribed_topic_do_not_kill_the_executor(r
     gripper = ros.publisher("/gripper/status", GripperStatus, RELIABLE)
     ros.wait_for_subscribers(gripper)
     gripper.publish(GripperStatus(gap=math.inf))
+    joints = ros.publisher("/joint_states", JointState, RELIABLE)
+    ros.wait_for_subscribers(joints)
+    joints.publish(JointState(name=["shoulder_pan_joint", "elbow_joint"], position=[0.1]))
     wait_logged(logged, ["malformed /plan: actions[1].type", "malformed /blocks/detected: "
                          "missing_ids[0]", "malformed /planner/status: state",
                          "malformed /arm/tcp_pose: pose.orientation.w",
-                         "malformed /arm/status: state", "malformed /gripper/status: gap"])
+                         "malformed /arm/status: state", "malformed /gripper/status: gap",
+                         "malformed /joint_states: position"])
     wait_status(ros, "idle", timeout=20)
     answer = ros.call_service("/executor/stop", Trigger)
     assert answer.success

@@ -17,6 +17,7 @@ from nodes.common.camera_model import CameraModel
 from nodes.executor import observe
 from nodes.executor.belief import Belief
 from nodes.executor.core import ExecutorCore
+from nodes.executor.decisions import LookOnTheWay
 from nodes.executor.motion import ToolPose
 from nodes.executor.observe import WAYPOINTS_TRIED, via_waypoint
 from nodes.executor.primitives import hover_steps, look_pose
@@ -216,3 +217,43 @@ def test_the_moment_picked_leaves_the_blocks_in_view_a_little_later_too():
         at = best_moment(NearTool(), samples, blocks, {1, 2}, set())
         assert at == (None if moment is None else pytest.approx(moment))
     assert LATE_SAMPLES == 2
+
+
+#: Joints the arm had in a 25-block run after a far reach took it off the working branch
+#: (the wrist turned over: wrist 2 at -pi/2 where the working branch has +pi/2).
+OTHER_BRANCH = (2.595, -1.441, 2.21, 3.943, -1.571, -2.125)
+
+
+def test_the_arm_is_predicted_on_the_branch_its_joints_are_on():
+    """The arm node solves each setpoint nearest the joints before it, so an arm that left
+    the working branch stays on the other one: its silhouette is predicted from its joints.
+    A block the turned-over wrist covers (and the working branch does not), or the reverse,
+    decides the moment only as the arm's own branch sees it."""
+    tool = ToolPose(0.62, -0.20, CFG.travel_height, 0.0)
+    working = arm_postures([tool])[0]
+    other = arm_postures([tool], OTHER_BRANCH)[0]
+    assert working[4] > 0.0 > other[4]
+    samples = [(0.05 * k, tool) for k in range(5)]
+    spots = [Pose2D(float(x), float(y), 0.0) for x in np.arange(0.30, 1.10, 0.02)
+             for y in np.arange(-0.60, 0.60, 0.02)]
+    differ = [p for p in spots
+              if VIEW.covered(working, {1: p}) != VIEW.covered(other, {1: p})]
+    assert differ  # the two postures cover different parts of the table
+    for spot in differ[::max(len(differ) // 5, 1)]:
+        covered_by_other = bool(VIEW.covered(other, {1: spot}))
+        at = best_moment(VIEW, samples, {1: spot}, {1}, set(), OTHER_BRANCH)
+        assert (at is None) == covered_by_other
+        assert (best_moment(VIEW, samples, {1: spot}, {1}, set()) is None) != covered_by_other
+
+
+def test_the_core_predicts_the_way_from_the_joints_the_arm_reports(monkeypatch):
+    """The joints the driver reports reach the look on the way (none yet: the working
+    branch)."""
+    seen = []
+    monkeypatch.setattr(observe, "look_on_the_way",
+                        lambda *args: seen.append(args[-1]) or None)
+    core = ExecutorCore(CFG)
+    core._decide(LookOnTheWay())
+    core.on_arm_joints(OTHER_BRANCH)
+    core._decide(LookOnTheWay())
+    assert seen == [None, OTHER_BRANCH]
