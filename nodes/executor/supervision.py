@@ -55,8 +55,12 @@ HELD_BELOW = 0.002
 HELD_ABOVE = 0.0015
 #: A requested gap further than this from the executor's own command is not ours (m) ...
 COMMAND_TOL = 0.0005
-#: ... except in reports from before the executor's last command can have reached it (s).
+#: ... except in reports from before the executor's last command can have reached it (s),
 COMMAND_IN_TRANSIT_S = 0.3
+#: ... or, for this long (s), reports that still echo the command before it: on a loaded
+#: machine the driver's echo of a new command came 0.35 s after it (a false misfire: the run
+#: stopped, let go and looked); a stray command's request is neither of the two.
+PREVIOUS_IN_TRANSIT_S = 1.0
 
 
 class GraspSupervisor:
@@ -72,12 +76,15 @@ class GraspSupervisor:
         self.block: int | None = None
         self.commanded: float | None = None  #: the executor's own last gripper command
         self._commanded_at = 0.0
+        self._previous: float | None = None  #: the one before it, differing
         self.last: GripperStatus | None = None
 
     # --- what to expect ------------------------------------------------------------------------
     def commanding(self, opening: float, at: float) -> None:
         """The executor sends ``opening`` at time ``at`` (s): stop judging the fingers until
         they have done it."""
+        if self.commanded is not None and abs(opening - self.commanded) > COMMAND_TOL:
+            self._previous = self.commanded
         self.commanded, self._commanded_at = opening, at
         self.expect = Expect.NOTHING
 
@@ -110,10 +117,13 @@ class GraspSupervisor:
     # --- judging -----------------------------------------------------------------------------
     def _ours(self, reading: GripperStatus) -> bool:
         """The request the gripper reports is the executor's, or comes from before its last
-        command reached the gripper."""
+        command reached the gripper (any request, or the executor's command before it)."""
         assert self.commanded is not None
+        since = reading.stamp_ns * 1e-9 - self._commanded_at
+        echoes_previous = (self._previous is not None and since <= PREVIOUS_IN_TRANSIT_S
+                           and abs(reading.requested_gap - self._previous) <= COMMAND_TOL)
         return (abs(reading.requested_gap - self.commanded) <= COMMAND_TOL
-                or reading.stamp_ns * 1e-9 <= self._commanded_at + COMMAND_IN_TRANSIT_S)
+                or since <= COMMAND_IN_TRANSIT_S or echoes_previous)
 
     def _dropped(self, r: GripperStatus) -> bool:
         """The held block is gone: the force-limited fingers close past its width at once

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from msgs_py import Pose2D
-from msgs_py.status import ArmStatus
+from msgs_py.status import ArmStatus, GripperStatus
 from nodes.executor import faults
 from nodes.executor.belief import Belief
 from nodes.executor.core import ExecutorCore
@@ -16,7 +16,12 @@ from nodes.executor.player import Player
 from nodes.executor.report import Report
 from nodes.executor.states import Purpose, State, Tries
 from nodes.executor.steps import StepFault, StepFaultKind
-from nodes.executor.supervision import GraspSupervisor
+from nodes.executor.supervision import (
+    COMMAND_IN_TRANSIT_S,
+    PREVIOUS_IN_TRANSIT_S,
+    FaultKind,
+    GraspSupervisor,
+)
 from tests.unit.executor.world import (
     CFG,
     DT,
@@ -269,3 +274,21 @@ def test_a_hold_mid_motion_backs_up_and_looks_without_reading_it_as_contact():
                for line in world.logs)
     world.run(lambda: core.state in (State.DONE, State.FAILED, State.STOPPED))
     assert core.state is State.DONE and core.report.metrics.get("protective_stops", 0) == 0
+
+
+def test_a_late_echo_of_the_executors_own_command_before_is_no_misfire():
+    """The driver echoes a new command late on a loaded machine: reports stamped after the
+    transit allowance that still request the executor's previous opening are in transit
+    (for PREVIOUS_IN_TRANSIT_S), not a stray command; any other request is one."""
+    def reading(requested: float, at: float) -> GripperStatus:
+        return GripperStatus(0.0828, requested, "stopped_opening", round(at * 1e9))
+    sup = GraspSupervisor(0.0508)
+    sup.commanding(0.0828, 1.0)
+    sup.commanding(0.0588, 2.0)
+    late = 2.0 + 0.5 * (COMMAND_IN_TRANSIT_S + PREVIOUS_IN_TRANSIT_S)
+    assert late > 2.0 + COMMAND_IN_TRANSIT_S
+    assert sup.on_reading(reading(0.0828, late)) is None
+    assert sup.on_reading(reading(0.0588, late)) is None
+    assert sup.on_reading(reading(0.0200, late)).kind is FaultKind.MISFIRE
+    stale = 2.0 + PREVIOUS_IN_TRANSIT_S + 0.1
+    assert sup.on_reading(reading(0.0828, stale)).kind is FaultKind.MISFIRE
