@@ -125,6 +125,7 @@ class ExecutorNode(Node):
         self.render_pub = self.create_publisher(Header, "/sim/render_request", RELIABLE)
         self._frame_after_ns: int | None = None  # a frame taken since then is the look's
         self._camera_pose = self._load_camera_pose() if self.config.look_while_moving else None
+        self._joint_state: JointState | None = None
         if self.config.look_while_moving:
             self.create_subscription(JointState, drivers.JOINT_STATES, self.on_joint_state,
                                      RELIABLE)
@@ -176,12 +177,19 @@ class ExecutorNode(Node):
             self.core.on_tcp(pose, stamp if stamp > 0.0 else None)
 
     def on_joint_state(self, msg: JointState) -> None:
-        """The arm driver's joint states (any order, by name; other joints' are ignored)."""
-        values = self._decoded(msg, joint_state_values, drivers.JOINT_STATES)
+        """The arm driver's joint states, kept for the next tick to read (ur_robot_driver
+        publishes them at 500 Hz: only the branch matters, so only the latest is decoded)."""
+        self._joint_state = msg
+
+    def _take_joint_state(self) -> None:
+        """The latest joint state since the last tick (any order, by name; other joints'
+        are ignored) to the core."""
+        msg, self._joint_state = self._joint_state, None
+        values = None if msg is None else self._decoded(msg, joint_state_values,
+                                                        drivers.JOINT_STATES)
         q = None if values is None else values_by_name(values[0], values[1], ur10e.ARM_JOINTS)[0]
         if q is not None:
-            with self.lock:
-                self.core.on_arm_joints(q)
+            self.core.on_arm_joints(q)
 
     def on_planner_status(self, msg: PlannerStatusMsg) -> None:
         status = self._decoded(msg, planner_status_from_msg, "/planner/status")
@@ -275,6 +283,7 @@ class ExecutorNode(Node):
     def on_tick(self) -> None:
         now = self.get_clock().now()
         with self.lock:
+            self._take_joint_state()
             self.core.on_arm_lost(self.arm_watch.on_tick(self._want_control,
                                                          self.arm_control.takes_my_commands,
                                                          self.arm_control.inherited))
