@@ -287,7 +287,11 @@ class HandEye:
         seen = {b.id: b.pose for b in raw.blocks}
         still = []
         for placement, picked in self.pending:
-            if raw.stamp_ns < placement.stamp_ns + SEEN_AFTER_RELEASE_S * 1e9:
+            if (raw.stamp_ns < placement.stamp_ns + SEEN_AFTER_RELEASE_S * 1e9
+                    or placement.block in raw.occluded):
+                # too soon, or the arm covers it (a frame taken as the arm moves on): the
+                # placement waits for a frame that shows the block (the camera check's one
+                # placement was lost so, and with it the whole correction)
                 still.append((placement, picked))
             elif placement.block in seen:
                 self.samples.append(Sample(picked, placement.pose, placement.closing_axis_yaw,
