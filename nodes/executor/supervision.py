@@ -57,9 +57,9 @@ HELD_ABOVE = 0.0015
 COMMAND_TOL = 0.0005
 #: ... except in reports from before the executor's last command can have reached it (s),
 COMMAND_IN_TRANSIT_S = 0.3
-#: ... or, for this long (s), reports that still echo the command before it: on a loaded
-#: machine the driver's echo of a new command came 0.35 s after it (a false misfire: the run
-#: stopped, let go and looked); a stray command's request is neither of the two.
+#: ... or, for this long (s), reports that still echo the command before it: once in a
+#: default run the driver's echo of a new command came 0.35 s after it (cause not found; a
+#: false misfire: the run stopped, let go and looked); a stray command's request is neither.
 PREVIOUS_IN_TRANSIT_S = 1.0
 
 

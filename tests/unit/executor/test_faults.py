@@ -277,9 +277,9 @@ def test_a_hold_mid_motion_backs_up_and_looks_without_reading_it_as_contact():
 
 
 def test_a_late_echo_of_the_executors_own_command_before_is_no_misfire():
-    """The driver echoes a new command late on a loaded machine: reports stamped after the
-    transit allowance that still request the executor's previous opening are in transit
-    (for PREVIOUS_IN_TRANSIT_S), not a stray command; any other request is one."""
+    """The driver echoes a new command late (seen once in a default run): reports stamped
+    after the transit allowance that still request the executor's previous opening are in
+    transit (for PREVIOUS_IN_TRANSIT_S), not a stray command; any other request is one."""
     def reading(requested: float, at: float) -> GripperStatus:
         return GripperStatus(0.0828, requested, "stopped_opening", round(at * 1e9))
     sup = GraspSupervisor(0.0508)
