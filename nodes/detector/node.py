@@ -32,7 +32,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from msgs_py import MessageError, drivers
+from msgs_py import BlockPose, MessageError, drivers
 from msgs_py.camera import CameraPose, UnsupportedLensModel
 from msgs_py.ros import block_set_to_markers, block_set_to_msg, placement_from_msg, stamp_to_ns
 from msgs_py.ros.image import camera_info_to_camera, image_to_array
@@ -139,7 +139,7 @@ class DetectorNode(Node):
             for topic in (drivers.JOINT_STATES, drivers.GRIPPER_JOINT_STATES):
                 self.create_subscription(JointState, topic, self.on_joint_state, RELIABLE,
                                          callback_group=control_group)
-        if self.config.correct_from_placements:
+        if self.config.correct_from_placements or self.config.robot_occlusion:
             self.create_subscription(Placement, "/executor/placements", self.on_placement,
                                      RELIABLE, callback_group=control_group)
         self.create_timer(WATCHDOG_PERIOD_S, self.watchdog, callback_group=control_group)
@@ -170,6 +170,9 @@ class DetectorNode(Node):
             self.warn(WarningKind.PLACEMENT, f"ignoring a malformed /executor/placements: {err}")
             return
         with self._state:
+            self.detector.on_placed(BlockPose(placement.block, placement.pose.x,
+                                              placement.pose.y, placement.pose.theta),
+                                    placement.stamp_ns)
             if self.hand_eye is not None:
                 self.hand_eye.on_placement(placement)
 

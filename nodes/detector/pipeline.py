@@ -7,9 +7,9 @@ at the frame's stamp (``nodes.detector.robot_view``), the blocks whose tags the 
 wholly or partly, are ``occluded``: seen or not, they are not judged from this frame (a
 finger over one side of a tag bends its fitted edge). Known blocks neither seen nor covered
 are ``missing``. "Known" = the ``expected_ids`` given up front plus every id seen since start
-or since ``reset()``; where a block was last seen (uncovered) tells whether the robot covers
-it now. Every refusal comes back as a ``FrameWarning`` (its kind and the text) for the node
-to log.
+or since ``reset()``; where a block was last seen (uncovered), or where the arm set it down
+since (``on_placed``), tells whether the robot covers it now. Every refusal comes back as a
+``FrameWarning`` (its kind and the text) for the node to log.
 """
 
 from __future__ import annotations
@@ -75,6 +75,7 @@ class BlockDetector:
         self.expected = parse_id_set(config.expected_ids, "expected_ids")
         self.seen: set[int] = set()
         self.last_seen: dict[int, BlockPose] = {}  #: where each block was last seen uncovered
+        self._placed: list[tuple[int, BlockPose]] = []  #: (stamp ns, pose) not yet in last_seen
         self._camera: CameraModel | None = None
 
     @property
@@ -85,6 +86,24 @@ class BlockDetector:
         """Forget the blocks seen so far (a new scene); ``expected_ids`` stay known."""
         self.seen.clear()
         self.last_seen.clear()
+        self._placed.clear()
+
+    def on_placed(self, block: BlockPose, stamp_ns: int) -> None:
+        """The arm set ``block`` down at ``stamp_ns``. In frames taken from then on, until
+        one shows it, the robot covers it or not where it was set down, not where it was
+        last seen before it was picked: the arm rises from a block it has just let go, so
+        the first frame on its way often has it under the arm, and judged where it stood
+        before it would be called missing (the executor then looked again from the park
+        pose, 1-7 times in a 16-block scene). The pose is the arm's (world), not the
+        camera's: a calibration error of a few mm is within ``occlusion_margin_px``."""
+        self._placed.append((stamp_ns, block))
+
+    def _take_placed(self, stamp_ns: int) -> None:
+        """Where the blocks set down by ``stamp_ns`` stand, into ``last_seen``."""
+        due = [(t, b) for t, b in self._placed if t <= stamp_ns]
+        self._placed = [(t, b) for t, b in self._placed if t > stamp_ns]
+        for _, block in sorted(due, key=lambda placed: placed[0]):
+            self.last_seen[block.id] = block
 
     def camera(self, intrinsics: CameraIntrinsics) -> CameraModel:
         if self._camera is None or self._camera.intrinsics != intrinsics:
@@ -131,6 +150,7 @@ class BlockDetector:
             corners[det.tag_id] = det.corners
             reprojection[det.tag_id] = round(est.reprojection_px, 4)
         self.seen |= {b.id for b in blocks} | set(rejected)
+        self._take_placed(stamp_ns)
         covered = self._covered(camera, robot, corners)
         blocks = [b for b in blocks if b.id not in covered]
         self.last_seen.update({b.id: b for b in blocks})

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from msgs_py import BlockPose
 from msgs_py.camera import CameraPose
 from nodes.bench.perception_frames import scene_for
 from nodes.bench.sim_frames import arm_over_a_block, fully_visible_tags
@@ -89,3 +90,51 @@ def test_the_detector_reports_blocks_under_the_arm_occluded_and_the_rest_seen():
     assert set(frame.ids) <= shown and len(frame.ids) >= 0.6 * len(shown)
     for block in frame.blocks:  # the ones it trusts are where they are
         assert math.hypot(block.x - truth[block.id].x, block.y - truth[block.id].y) < 0.002
+
+
+def test_a_block_set_down_under_the_arm_is_occluded_where_it_was_set_down_not_missing():
+    """A block the arm has just let go is still under it in the first frame on the way: the
+    detector judges it where the arm says it set it down (``on_placed``), so it is occluded,
+    where judged by where it stood before the pick it would be missing; a placement stamped
+    after the frame does not count for it."""
+    sim_config, camera_config, _ = load_sim_configs()
+    camera = camera_config.model()
+    world = SimWorld(dataclasses.replace(sim_config, seed=3), camera, scene_for(3, 0.25),
+                     noise_std=camera_config.noise_std)
+    pose = CameraPose(tuple(camera.position), tuple(camera.orientation_xyzw))
+    told, untold, late = (BlockDetector(DetectorConfig(), pose) for _ in range(3))
+    try:
+        world.step(60)
+        truth = {b.id: b for b in world.block_poses()}
+        parked = world.render()
+        for detector in (told, untold, late):
+            detector.process(parked, camera.intrinsics, 1)
+        moved, down = _set_apart(world, truth)
+        assert arm_over_a_block(world, {moved: down}, np.random.default_rng(0), 0.08)
+        robot = RobotPose(world.arm_q(), world.fingers.status()[0])
+        frame = world.render()
+    finally:
+        world.close()
+    assert moved in told.last_seen  # seen parked, where it stood before
+    told.on_placed(down, 2)
+    late.on_placed(down, 4)
+    judged = {name: d.process(frame, camera.intrinsics, 3, robot=robot).blocks
+              for name, d in (("told", told), ("untold", untold), ("late", late))}
+    assert moved in judged["told"].occluded and moved not in judged["told"].missing
+    assert moved in judged["untold"].missing and moved in judged["late"].missing
+
+
+def _set_apart(world: SimWorld, truth) -> tuple[int, BlockPose]:
+    """Stand the first block on a free spot at least 0.12 m from every other block (a
+    block carried there), settled; its id and pose there."""
+    moved = min(truth)
+    others = [b for i, b in truth.items() if i != moved]
+    spots = [(x, y) for x in np.arange(0.45, 0.95, 0.02) for y in np.arange(-0.3, 0.3, 0.02)
+             if min(math.hypot(x - b.x, y - b.y) for b in others) > 0.12]
+    assert spots, "no free spot in this scene"
+    x, y = spots[len(spots) // 2]
+    z = world.block_position(moved)[2]
+    world.client.resetBasePositionAndOrientation(world.block_bodies[moved], (x, y, z),
+                                                 (0.0, 0.0, 0.0, 1.0))
+    world.step(60)
+    return moved, BlockPose(moved, x, y, 0.0)
