@@ -95,6 +95,8 @@ def activity_medians(runs: list[dict[str, Any]]) -> dict[str, float]:
 
 
 def look_pose_share(looks: dict[str, float]) -> float | None:
-    """Of the looks after actions, the share that needed the look pose (None: no look)."""
+    """Of the looks after actions, the share that needed the arm out of view: from the look
+    pose, or again from the park pose for a block the frame did not show (None: no look)."""
     total = sum(looks.values())
-    return round(looks.get("from_look_pose", 0.0) / total, 3) if total else None
+    parked = looks.get("from_look_pose", 0.0) + looks.get("again_from_park_pose", 0.0)
+    return round(parked / total, 3) if total else None

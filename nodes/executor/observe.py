@@ -155,8 +155,7 @@ class Camera:
 
 
 def count_detection(camera: Camera, frame_stamp_ns: int, now: float, report: Report) -> None:
-    """An accepted detection in the status metrics: one more observation, and a late one
-    (``Camera.late``) counted and logged with where the time went."""
+    """An accepted detection: one more observation; a late one counted and explained."""
     report.count("observations")
     late = camera.late(frame_stamp_ns, now)
     if late is not None:
@@ -336,6 +335,7 @@ def judge_world(belief: Belief, camera: Camera, tries: Tries, cfg: ExecutorConfi
                               cfg.yaw_tolerance)
     if missing:
         if camera.triggers < cfg.detection_retries:
+            report.count("looks_again_from_park_pose")
             report.log(f"blocks {missing} not seen; looking again from the park pose")
             return Observe(camera.purpose, keep_tries=True)
         return Stop(f"block(s) {missing} are no longer seen by the camera (taken away?); "

@@ -97,6 +97,9 @@ def test_the_look_pose_share_counts_the_looks_after_actions():
 
     assert look_pose_share({"on_the_way": 3, "from_waypoint": 5, "from_look_pose": 2}) == 0.2
     assert look_pose_share({}) is None
+    # a look again from the park pose (a block the frame did not show) needed the arm away
+    assert look_pose_share({"on_the_way": 3, "from_waypoint": 5, "from_look_pose": 1,
+                            "again_from_park_pose": 1}) == 0.2
 
 
 def test_a_stray_gripper_command_succeeds_only_when_the_gripper_refused_and_named_it():

@@ -104,6 +104,7 @@ def test_blocks_the_arm_hides_at_the_look_pose_are_looked_at_from_the_park_pose(
     assert any("not seen; looking again from the park pose" in line for line in world.logs)
     assert CFG.park in world.trigger_poses[1:-1]
     assert core.report.metrics["actions_executed"] == 3
+    assert core.report.metrics["looks_again_from_park_pose"] >= 1  # in the run's figures
 
 
 def test_an_empty_plan_for_a_reached_goal_is_verified_and_done():
