@@ -1,4 +1,5 @@
-"""A block the arm has just set down: the arm's word for where it is (for hand-eye checks)."""
+"""A block the arm has just set down or pushed: the arm's word for where it is (for the
+detector's occlusion judgement, and, set down, its hand-eye checks)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,9 @@ class Placement:
     on it, along the axis at ``closing_axis_yaw`` (rad). The fingers centre a block along
     that axis only: across it, the block keeps the offset it was picked up with, unless
     ``squared``: the fingers closed on it along each of its axes in turn at this TCP (the
-    camera check), so it stands on the TCP on both axes."""
+    camera check), so it stands on the TCP on both axes. ``pushed``: not let go but pushed
+    to ``pose`` (the push's planned end; ``picked_from`` where it stood before): where it
+    stands, for whether the robot covers it, and no hand-eye equation."""
 
     block: int
     pose: Pose2D
@@ -24,6 +27,7 @@ class Placement:
     closing_axis_yaw: float
     stamp_ns: int = 0
     squared: bool = False
+    pushed: bool = False
 
     def __post_init__(self) -> None:
         if self.block < 0:

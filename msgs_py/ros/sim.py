@@ -53,7 +53,7 @@ def placement_to_msg(placement: Placement) -> ifc.Placement:
                         pose=pose_to_msg(placement.pose),
                         picked_from=pose_to_msg(placement.picked_from, "picked_from"),
                         closing_axis_yaw=float_at("closing_axis_yaw", placement.closing_axis_yaw),
-                        squared=bool(placement.squared))
+                        squared=bool(placement.squared), pushed=bool(placement.pushed))
     msg.header.stamp = ns_to_stamp(placement.stamp_ns, "stamp_ns")
     msg.header.frame_id = "world"
     return msg
@@ -65,7 +65,7 @@ def placement_from_msg(msg: ifc.Placement) -> Placement:
     return Placement(int(msg.block), pose_from_msg(msg.pose),
                      pose_from_msg(msg.picked_from, "picked_from"),
                      float_at("closing_axis_yaw", msg.closing_axis_yaw),
-                     stamp_to_ns(msg.header.stamp), bool(msg.squared))
+                     stamp_to_ns(msg.header.stamp), bool(msg.squared), bool(msg.pushed))
 
 
 def sim_event_to_msg(event: SimEvent, where: str = "event") -> ifc.SimEvent:

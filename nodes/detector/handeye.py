@@ -267,8 +267,11 @@ class HandEye:
         self.log: list[str] = []
 
     def on_placement(self, placement: Placement) -> None:
-        # a block set down again before it was seen: only the last placement says where it is
+        # a block set down again (or pushed) before it was seen: only the last placement
+        # says where it is, and a push's end is no equation (the fingers did not let it go)
         self.pending = [(p, raw) for p, raw in self.pending if p.block != placement.block]
+        if placement.pushed:
+            return
         if placement.stamp_ns < self.corrected_at_ns + SETTLE_AFTER_CORRECTION_S * 1e9:
             return  # picked while another correction was in use: its pick pose is unreliable
         self.pending.append((placement, self._raw(placement.picked_from)))

@@ -72,6 +72,8 @@ def supervise(supervisor: GraspSupervisor, belief: Belief, readings: Sequence[Gr
             supervisor.last = reading
     last = supervisor.last
     for step in finished:
+        if isinstance(step, Move) and step.pushes and placing:
+            placement = pushed(belief, step, now) or placement
         if not isinstance(step, Grip) or not step.wait:
             continue
         if step.holds is not None:
@@ -88,6 +90,17 @@ def supervise(supervisor: GraspSupervisor, belief: Belief, readings: Sequence[Gr
     if gripper is not None:
         supervisor.commanding(gripper, now)
     return fault, placement
+
+
+def pushed(belief: Belief, stroke: Move, now: float) -> Placement | None:
+    """A push's stroke ended: its block stands where the plan pushes it (reported so that
+    the detector judges whether the arm covers it there, not where it stood before)."""
+    block = stroke.block
+    where = None if block is None else belief.expected.get(block)
+    if block is None or where is None:
+        return None
+    before = belief.picked_from or where
+    return Placement(block, where, before, stroke.target.yaw, round(now * 1e9), pushed=True)
 
 
 def released(belief: Belief, now: float, placing: bool, tool: ToolPose | None

@@ -197,7 +197,7 @@ def _push_parts(action: Push, start: Pose2D, geo: GripperGeometry, cfg: Executor
         Grip(geo.push_opening, cfg.gripper_settle_s, f"{tag}: fingers closed", **of),
         *settle_onto(contact.with_z(cfg.travel_height), cfg.push_height, cfg,
                      f"{tag}: descend behind", action.block),
-        Move(end, cfg.push_limits, f"{tag}: push", **of),
+        Move(end, cfg.push_limits, f"{tag}: push", pushes=True, **of),
         # converged: the arm, a servo delay and a stream behind the setpoints, has its fingers
         # off the block before the action ends and the status stops naming the block (else
         # the sim counted the pushed block touched after its push, 9 scenes in 10)

@@ -5,8 +5,7 @@ time-optimal move to a tool pose), ``Rise`` (straight up to a height from wherev
 is), ``Grip`` (set the finger opening and wait until the gripper has done it), each with the
 activity it serves and the block it handles. ``StepRunner`` plays a script: fed the time, the
 measured TCP and the measured finger gap at every tick, it returns the setpoint (and gripper
-command) to publish, so the node stays a thin timer callback and tests can play a script
-without ROS.
+command) to publish, so the node stays a thin timer callback and tests run it without ROS.
 
 A move starts from where the script last commanded the tool, so streamed setpoints are
 continuous even when tracking lags. A move with a ``blend`` radius hands over to the next
@@ -65,6 +64,7 @@ class Move:
     onto: float | None = None
     activity: Activity = Activity.OTHER
     block: int | None = None  #: the block the step handles (``Activity.BLOCK``)
+    pushes: bool = False  #: a push's stroke: once it ends, ``block`` stands at its goal
 
 
 @dataclass(frozen=True, slots=True)

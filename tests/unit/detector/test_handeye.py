@@ -359,3 +359,29 @@ def test_a_placement_whose_block_the_arm_covers_waits_for_a_frame_that_shows_it(
         hand_eye.correct(BlockSet((seen,), 4 * 10**9))
         assert len(hand_eye.samples) == int(kept)
         assert bool(hand_eye.log) == kept
+
+
+def test_a_pushed_block_is_no_equation_and_ends_the_wait_of_its_placement():
+    """A block set down on its push line and pushed before a frame showed it: the frame
+    shows it where the push left it, which says nothing of where it was let go. The push's
+    report drops the waiting placement and adds none of its own."""
+    from msgs_py import BlockPose, BlockSet
+    from msgs_py.placement import Placement
+    from nodes.detector.handeye import HandEye
+
+    d = (0.0135, -0.0039)
+    true = Pose2D(0.80, 0.20, 0.3)
+    sample = squared(true, 0.3, d, 0.0)
+    pushed_to = Pose2D(sample.placed.x + 0.04, sample.placed.y, sample.placed.theta)
+    for push in (False, True):
+        hand_eye = HandEye(CORNERS, CENTRE)
+        hand_eye.on_placement(Placement(3, sample.placed, sample.picked, 0.3 + math.pi / 2,
+                                        10**9, squared=True))
+        if push:
+            hand_eye.on_placement(Placement(3, pushed_to, sample.placed, 0.3, 2 * 10**9,
+                                            pushed=True))
+        seen = sample.seen if not push else Pose2D(sample.seen.x + 0.04, sample.seen.y,
+                                                   sample.seen.theta)
+        hand_eye.correct(BlockSet((BlockPose(3, seen.x, seen.y, seen.theta),), 3 * 10**9))
+        assert len(hand_eye.samples) == (0 if push else 1)
+        assert not hand_eye.pending

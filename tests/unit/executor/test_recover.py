@@ -91,8 +91,10 @@ def test_a_block_knocked_onto_another_is_set_apart_and_the_plan_goes_on():
     assert any("blocks 2 and 1 overlap: setting block 2 apart" in line for line in world.logs)
     assert "recovering" in world.states
     # the set-apart is not reported to perception (its pick pose is that of a knocked block):
-    # block 2's one placement is its plan action's, the pick to its push start
-    assert [p.pose for p in world.placements if p.block == 2] == [Pose2D(0.8538, 0.0, 0.0)]
+    # block 2's one placement is its plan action's, the pick to its push start, then its
+    # push's end (marked pushed: not let go there)
+    assert [(p.pose, p.pushed) for p in world.placements if p.block == 2] == [
+        (Pose2D(0.8538, 0.0, 0.0), False), (world.blocks[2], True)]
     # the plan goes on from where block 2 was set down (its next pick starts there)
     assert world.blocks[1].distance_to(GOAL[1]) < 1e-9
     assert world.blocks[2].distance_to(GOAL[2]) < 1e-9

@@ -185,11 +185,12 @@ def test_poses_and_block_poses_round_trip_bit_exact(pose, block_id):
               msg_codecs.block_pose_from_msg)
 
 
-@given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1), st.booleans())
-def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns, squared):
+@given(poses(), poses(), yaws, ids, st.integers(0, 2**31 * 10**9 - 1), st.booleans(),
+       st.booleans())
+def test_placements_round_trip(pose, picked, axis, block_id, stamp_ns, squared, pushed):
     from msgs_py.placement import Placement
 
-    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns, squared),
+    roundtrip(Placement(block_id, pose, picked, axis, stamp_ns, squared, pushed),
               msg_codecs.placement_to_msg, msg_codecs.placement_from_msg)
 
 
