@@ -8,8 +8,8 @@ wholly or partly, are ``occluded``: seen or not, they are not judged from this f
 finger over one side of a tag bends its fitted edge). Known blocks neither seen nor covered
 are ``missing``. "Known" = the ``expected_ids`` given up front plus every id seen since start
 or since ``reset()``; where a block was last seen (uncovered), or where the arm set it down
-since (``on_placed``), tells whether the robot covers it now. Every refusal comes back as a
-``FrameWarning`` (its kind and the text) for the node to log.
+or pushed it since (``on_placed``), tells whether the robot covers it now. Every refusal
+comes back as a ``FrameWarning`` (its kind and the text) for the node to log.
 """
 
 from __future__ import annotations
@@ -89,12 +89,12 @@ class BlockDetector:
         self._placed.clear()
 
     def on_placed(self, block: BlockPose, stamp_ns: int) -> None:
-        """The arm set ``block`` down at ``stamp_ns``. In frames taken from then on, until
-        one shows it, the robot covers it or not where it was set down, not where it was
-        last seen before it was picked: the arm rises from a block it has just let go, so
-        the first frame on its way often has it under the arm, and judged where it stood
-        before it would be called missing (the executor then looked again from the park
-        pose, 1-7 times in a 16-block scene). The pose is the arm's (world), not the
+        """The arm set ``block`` down (or pushed it) at ``stamp_ns``. In frames taken from
+        then on, until one shows it, the robot covers it or not where the arm left it, not
+        where it was last seen before it was picked: the arm rises from a block it has just
+        let go, so the first frame on its way often has it under the arm, and judged where
+        it stood before it would be called missing (the executor then looked again from the
+        park pose, 1-7 times in a 16-block scene). The pose is the arm's (world), not the
         camera's: a calibration error of a few mm is within ``occlusion_margin_px``."""
         self._placed.append((stamp_ns, block))
 
