@@ -8,9 +8,10 @@ centre of a square workspace sized for the density (block area / workspace area)
   A draw that leaves blocks *locked* (``frozen.locked_blocks``: no grasp fits them and no
   nudge frees one even with every other block gone, so no two-finger gripper could have set
   them down in any order) is no valid start and is drawn again, as a jammed draw is.
-  Blocks stand where the arm reaches them: a workspace of 1.29 m^2 (25 blocks at density
-  0.05, 100 at 0.2: 1.14 m square at (0.70, 0)) reaches past the arm's 1.28 m in its far
-  corners, where random_scene may put a block; those seeds then differ from its scenes.
+  Blocks stand where the arm reaches them on its working branch (``nodes.robot.reach``,
+  1.05 m): a workspace whose far corners lie beyond (49 blocks at 0.3: 1.08 m; 100 at 0.3:
+  1.25 m) gets no block there, where random_scene without ``reachable`` may put one; those
+  seeds then differ from its scenes.
 * ``enclosed``: the grid is built except for its interior slots on a checkerboard (the
   centre of a 3x3; two of the four inner slots of a 4x4; five of the nine of a 5x5), each
   walled in by four neighbours on their goals; those slots' blocks stand scattered outside
@@ -40,7 +41,7 @@ from nodes.planner.bounds.frozen import locked_blocks
 from nodes.planner.config import PlannerConfig
 from nodes.planner.geometry.context import PlanContext
 from nodes.planner.geometry.obstacles import Bounds
-from nodes.planner.geometry.reach import ur10e_reach
+from nodes.robot.reach import ur10e_reach
 
 SETS = ("random", "enclosed", "rotated", "permuted")
 GAP = 0.003

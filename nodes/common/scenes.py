@@ -8,6 +8,7 @@ workspace area.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -56,8 +57,11 @@ def scatter_blocks(
     block_size: float = BLOCK_SIZE,
     min_gap: float = 0.0,
     first_id: int = 0,
+    reachable: Callable[[tuple[float, float]], bool] | None = None,
 ) -> tuple[BlockPose, ...]:
-    """n non-overlapping blocks, uniform position and yaw, footprints inside the workspace.
+    """n non-overlapping blocks, uniform position and yaw, footprints inside the workspace
+    and centres where ``reachable`` holds (the arm's reach: this package cannot know it, the
+    caller passes it; a large workspace reaches past it in its far corners).
 
     Raises:
         RuntimeError: the workspace is too crowded to place them by rejection sampling.
@@ -71,6 +75,8 @@ def scatter_blocks(
             y = float(rng.uniform(workspace.y_min, workspace.y_max))
             candidate = BlockPose(first_id + k, x, y, theta)
             if not workspace.contains_square(candidate, block_size):
+                continue
+            if reachable is not None and not reachable((x, y)):
                 continue
             poly = block_polygon(x, y, theta, block_size + 2 * min_gap)
             if any(poly.intersects(other) for other in inflated):
@@ -96,10 +102,13 @@ def random_scene(
     center: tuple[float, float] = DEFAULT_CENTER,
     aspect: float = 1.0,
     min_gap: float = 0.002,
+    reachable: Callable[[tuple[float, float]], bool] | None = None,
 ) -> Scene:
-    """Random start -> dense grid goal, reproducible for (n_blocks, density, seed)."""
+    """Random start -> dense grid goal, reproducible for (n_blocks, density, seed); block
+    centres where ``reachable`` holds (``scatter_blocks``)."""
     workspace = workspace_for(n_blocks, density, block_size, center, aspect)
     rng = np.random.default_rng(seed)
-    blocks = scatter_blocks(n_blocks, workspace, rng, block_size, min_gap)
+    blocks = scatter_blocks(n_blocks, workspace, rng, block_size, min_gap,
+                            reachable=reachable)
     return Scene(workspace, block_size, blocks, grid_goal(n_blocks, workspace, gap,
                                                           labeled=labeled))

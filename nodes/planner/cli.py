@@ -24,8 +24,8 @@ from nodes.common.paths import config_path
 from nodes.planner.config import PlannerConfig
 from nodes.planner.dispatch import goal_kind, plan_goal
 from nodes.planner.geometry.context import planning_workspace
-from nodes.planner.geometry.reach import ur10e_reach
 from nodes.planner.unlabeled.config import UnlabeledConfig
+from nodes.robot.reach import ur10e_reach
 
 #: The planner node's parameter groups, as ``--params-file`` names them.
 PLANNER_PARAMETERS = (("", PlannerConfig), ("unlabeled.", UnlabeledConfig))

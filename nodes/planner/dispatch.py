@@ -17,7 +17,6 @@ from msgs_py.scene import square_half_extent
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
 from nodes.planner.geometry.context import check_scene_size
-from nodes.planner.geometry.reach import check_scene_reach
 from nodes.planner.labeled.plan_labeled import misplaced, plan_scene
 from nodes.planner.outcome import PlanOutcome
 from nodes.planner.unlabeled.baseline import plan_assignment
@@ -25,6 +24,7 @@ from nodes.planner.unlabeled.config import UnlabeledConfig
 from nodes.planner.unlabeled.plan_unlabeled import plan_unlabeled, unfilled
 from nodes.planner.unlabeled.portfolio import plan_portfolio
 from nodes.planner.unlabeled.retrieval import is_retrieval, plan_retrieval
+from nodes.robot.reach import check_scene_reach
 
 #: A planner: (scene, config, unlabeled config, budget, plan id) -> outcome.
 Planner = Callable[[Scene, PlannerConfig, UnlabeledConfig, Budget, "str | None"], PlanOutcome]

@@ -16,8 +16,8 @@ from msgs_py.cell import GripperGeometry
 from msgs_py.footprint import block_corners
 from nodes.planner.config import PlannerConfig
 from nodes.planner.geometry.obstacles import Bounds, Obstacles, words
-from nodes.planner.geometry.reach import Reach, check_scene_reach, ur10e_reach
 from nodes.planner.geometry.transfer import CostModel
+from nodes.robot.reach import Reach, check_scene_reach, ur10e_reach
 
 State = Mapping[int, Pose2D]
 #: Poses closer than this (m, rad) are the same pose: an action between them does nothing.

@@ -1,12 +1,21 @@
-"""The UR10e's reach with the tool pointing down: which TCP positions a plan may use.
+"""The UR10e's reach with the tool pointing down, on its working branch: which TCP positions
+a plan, and a generated scene, may use.
 
-Every point a plan puts the tool centre point (TCP) at (over and at a grasped block, behind a
-pushed block at the start and the end of the push, the straight carries between them) is
-checked against the arm's own kinematic model, ``nodes.robot.kinematics.solve_tcp_ik`` (the
-UR10e's DH parameters, closed-form IK through ``ur_analytic_ik``, branches with the elbow or
-a wrist near the table discarded). It is imported as is: a pure numpy module (no PyBullet) and
-the very model the arm controller and the sim's scene check use, so the planner accepts
-nothing the arm would refuse; moving it to a neutral package is the sim's call.
+The arm works the table on one branch of its IK, the one it starts on
+(``ur10e.WORKING_BRANCH_JOINTS``): elbow up, wrist 2 at +90 deg, the shoulder turned so the
+arm reaches over its front. Near full stretch (about 1.06 m from the base at the travel
+height) that branch ends: the elbow straightens and what remains is the other wrist branch,
+a reconfiguration of wrist 1 by about 200 deg and of wrist 3 by 180. A stream of Cartesian
+setpoints across that border makes the arm controller's nearest-branch IK swing the wrist at
+the bottom of a descent, beside other blocks, and crawl through it (measured: 6-7 s for the
+last centimetre of a descent). So the reach is the working branch's, not every branch's
+(0.18-1.29 m): a plan never crosses the border, and the scene generators draw within it.
+
+Every point a plan puts the TCP at (over and at a grasped block, behind a pushed block at the
+start and the end of the push, the straight carries between them) is checked against the
+arm's own kinematic model, ``nodes.robot.kinematics.solve_tcp_ik`` (the UR10e's DH
+parameters, closed-form IK through ``ur_analytic_ik``, branches with the elbow or a wrist
+near the table discarded), the very model the arm controller uses.
 
 Tool down, joint 1 turns the whole arm about the base's z axis and joint 6 turns the tool
 about its own vertical axis (both +-360 deg), so whether a TCP position is reachable depends
@@ -28,6 +37,7 @@ import numpy as np
 from msgs_py import MessageError
 from msgs_py.cell import ACTION_HEIGHTS
 from nodes.common.transforms import tool_down_matrix
+from nodes.robot import ur10e
 from nodes.robot.kinematics import solve_tcp_ik
 
 #: Kept from the boundary of the reachable annulus (m): a fully stretched or folded arm is
@@ -67,11 +77,35 @@ class Reach:
         return f"{self.r_min:.2f}-{self.r_max:.2f} m from the robot base"
 
 
-def _reachable(r: float, z: float) -> bool:
+def on_working_branch(q, azimuth: float) -> bool:
+    """Whether joints ``q`` put the arm on its working branch for a TCP at ``azimuth`` (rad,
+    about the base's z axis): elbow up (``q[2] > 0``), wrist 2 at +90 deg (``q[4] > 0``) and
+    the shoulder within 90 deg of ``azimuth + pi`` (the other shoulder solution is about
+    180 deg away)."""
+    shoulder = (float(q[0]) - azimuth) % (2.0 * np.pi) - np.pi
+    return bool(q[2] > 0.0 and q[4] > 0.0 and abs(shoulder) < 0.5 * np.pi)
+
+
+def working_reference(azimuth: float) -> np.ndarray:
+    """The working branch's joints turned to face ``azimuth``: the IK's reference there."""
+    q = np.asarray(ur10e.WORKING_BRANCH_JOINTS, dtype=float).copy()
+    q[0] = azimuth + np.pi
+    return q
+
+
+def working_branch_reaches(x: float, y: float, z: float, yaw: float = 0.0) -> bool:
+    """Whether the arm's IK puts the TCP at (x, y, z) with the tool down at ``yaw`` on the
+    working branch."""
     t = np.eye(4)
-    t[:3, :3] = tool_down_matrix(0.0)
-    t[:3, 3] = (r, 0.0, z)
-    return solve_tcp_ik(t, np.zeros(6)).ok
+    t[:3, :3] = tool_down_matrix(yaw)
+    t[:3, 3] = (x, y, z)
+    azimuth = float(np.arctan2(y, x))
+    ik = solve_tcp_ik(t, working_reference(azimuth))
+    return ik.ok and on_working_branch(ik.q, azimuth)
+
+
+def _reachable(r: float, z: float) -> bool:
+    return working_branch_reaches(r, 0.0, z)
 
 
 def _bisect(z: float, inside: float, outside: float) -> float:
@@ -86,7 +120,8 @@ def _bisect(z: float, inside: float, outside: float) -> float:
 
 
 def annulus(z: float) -> tuple[float, float]:
-    """(r_min, r_max) of the TCP positions reachable with the tool down at height ``z``.
+    """(r_min, r_max) of the TCP positions the working branch reaches with the tool down at
+    height ``z``.
 
     Raises:
         RuntimeError: nothing is reachable at that height, or the reachable radii are not
@@ -96,7 +131,8 @@ def annulus(z: float) -> tuple[float, float]:
     ok = np.array([_reachable(float(r), z) for r in radii])
     hits = np.flatnonzero(ok)
     if not len(hits):
-        raise RuntimeError(f"the UR10e reaches no TCP position with the tool down at z = {z} m")
+        raise RuntimeError(f"the UR10e's working branch reaches no TCP position with the tool "
+                           f"down at z = {z} m")
     first, last = int(hits[0]), int(hits[-1])
     if not ok[first:last + 1].all():
         raise RuntimeError(f"the UR10e's reach at z = {z} m is not one annulus")
@@ -142,7 +178,7 @@ def check_scene_reach(scene, reach: Reach | None = None) -> None:
 
 def _far(what: str, x: float, y: float, reach: Reach) -> str:
     return (f"{what} {np.hypot(x, y):.2f} m from the robot base, out of the UR10e's reach "
-            f"with the tool pointing down ({reach.describe()})")
+            f"with the tool pointing down on its working branch ({reach.describe()})")
 
 
 def _slot_owners(scene) -> list[int | None]:
