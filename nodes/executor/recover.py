@@ -82,8 +82,9 @@ def held_block(belief: Belief, look_for: Purpose, cfg: ExecutorConfig, report: R
 
 def bring_in(belief: Belief, tries: Tries, cfg: ExecutorConfig, report: Report,
              look_for: Purpose) -> Decision | None:
-    """A perceived block outside the workspace (dropped, knocked): pick it up and set it
-    down at the nearest free spot inside. None when every block is inside."""
+    """A perceived block outside the workspace or the arm's working reach (dropped,
+    knocked): pick it up and set it down at the nearest free spot inside both. None when
+    every block is inside."""
     plan = belief.plan
     assert plan is not None and plan.scene is not None
     away = outside(belief.perceived, plan.scene.workspace.grown(EDGE_TOLERANCE),
@@ -94,8 +95,9 @@ def bring_in(belief: Belief, tries: Tries, cfg: ExecutorConfig, report: Report,
     block = away[0]
     at = belief.perceived[block]
     if tries.bring_ins.again(block) > MAX_BRING_INS:
-        return Stop(f"block {block} is still seen outside the workspace at ({at.x:.3f}, "
-                    f"{at.y:.3f}) after {MAX_BRING_INS} tries to bring it in", failed=True)
+        return Stop(f"block {block} is still seen outside the workspace or reach at "
+                    f"({at.x:.3f}, {at.y:.3f}) after {MAX_BRING_INS} tries to bring it in",
+                    failed=True)
     margin = table_margin_of(plan.params)
     table = plan.scene.workspace
     reach = table.grown(3 * margin)
@@ -104,7 +106,7 @@ def bring_in(belief: Belief, tries: Tries, cfg: ExecutorConfig, report: Report,
                      table.grown(-BRING_IN_INSET), belief.geo, at.theta, (at.x, at.y),
                      margin + BRING_IN_INSET)
     if grasp is None or spot is None:
-        return Stop(f"block {block} lies outside the workspace at ({at.x:.3f}, {at.y:.3f})"
+        return Stop(f"block {block} lies outside the workspace or reach at ({at.x:.3f}, {at.y:.3f})"
                     " and cannot be " + ("grasped there" if grasp is None else
                                          "set down anywhere free inside"), failed=True)
     return move_aside(belief, cfg, report, look_for, block, spot, grasp, belief.perceived, reach,

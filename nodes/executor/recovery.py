@@ -3,8 +3,10 @@
 A block in the fingers that should not be there (found at start-up, or held when the arm
 must stop) is set down at the free spot nearest where it is wanted: block and both fingers
 (closing axis at the tool's yaw) clear of every perceived block by a margin, the block in the
-workspace, the fingers on the table. A block found outside the workspace (dropped, knocked)
-is brought back the same way, with a grasp whose fingers are clear where it lies.
+workspace and within the arm's working reach (``nodes.robot.reach``: a spot past it would
+be one no plan may use), the fingers on the table. A block found outside the workspace or
+past that reach (dropped, knocked) is brought back the same way, with a grasp whose fingers
+are clear where it lies.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from nodes.executor.config import ExecutorConfig
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import GRASP_SYMMETRY, pick_place_steps, release_opening
 from nodes.executor.steps import Grip, Move, Rise, Step, of_block
+from nodes.robot.reach import ur10e_reach
 
 #: Finger gap (m) that means "holding a block": the pads stopped on a cube of the contract's
 #: BLOCK_SIZE (open for a grasp is the block + 2 x clearance, closed on nothing is 0, a push
@@ -57,7 +60,8 @@ def free_spot(
     margin: float = 0.008,
     step: float = 0.01,
 ) -> Pose2D | None:
-    """The candidate pose nearest ``near`` where block and fingers are clear, or None."""
+    """The candidate pose nearest ``near`` where block and fingers are clear and the arm
+    reaches it on its working branch, or None."""
     xs = np.arange(workspace.x_min, workspace.x_max + 1e-9, step)
     ys = np.arange(workspace.y_min, workspace.y_max + 1e-9, step)
     gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
@@ -66,7 +70,8 @@ def free_spot(
     yaw = np.full_like(gx, tool_yaw)
     blocks = block_corners(gx, gy, yaw, geo.block_size)
     fingers = grasp_finger_corners(geo, gx, gy, yaw, np.zeros_like(gx))
-    inside = _inside(blocks, workspace, 0.0) & _inside(fingers, workspace, table_margin).all(-1)
+    inside = (_inside(blocks, workspace, 0.0) & _inside(fingers, workspace, table_margin).all(-1)
+              & ur10e_reach().contains(np.column_stack([gx, gy])))
     if not perceived:
         hits = np.zeros(len(gx), dtype=bool)
     else:
@@ -95,9 +100,13 @@ def _inside(corners: np.ndarray, ws: Workspace, grow: float) -> np.ndarray:
 
 def outside(perceived: Mapping[int, Pose2D], workspace: Workspace, block_size: float
             ) -> list[int]:
-    """Ids of the perceived blocks whose footprint leaves the workspace."""
+    """Ids of the perceived blocks whose footprint leaves the workspace, or whose centre
+    stands past the arm's working reach (no plan may pick it there: a large workspace runs
+    past that reach in its far corners)."""
+    reach = ur10e_reach()
     return sorted(b for b, pose in perceived.items()
-                  if not workspace.contains_square(pose, block_size))
+                  if not workspace.contains_square(pose, block_size)
+                  or not reach.contains((pose.x, pose.y)))
 
 
 def overlapping_ids(perceived: Mapping[int, Pose2D], block_size: float
