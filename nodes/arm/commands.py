@@ -52,6 +52,11 @@ class TrajectorySnippet:
     times: tuple[float, ...]  #: each point's time_from_start (s)
     positions: np.ndarray  #: (n, 6) rad
     velocities: np.ndarray  #: (n, 6) rad/s, the last row zero
+    #: Its motion ends short of the horizon, the arm still moving: the setpoints ran out
+    #: (the executor computing, say). Whoever plays it reaches that end soon, and the sim
+    #: holds its clock there until a longer snippet comes: the next setpoint is sent on at
+    #: once, not a tick of the clock later (the clock may be the one held).
+    cut_short: bool = False
 
     @property
     def end_s(self) -> float:
@@ -134,7 +139,8 @@ class JointStreamer:
         times = (*times, times[-1] + LATE_HOLD_S)
         positions = np.vstack([positions, positions[-1]])
         velocities = np.vstack([velocities, velocities[-1]])
-        return TrajectorySnippet(now, times, positions, velocities)
+        cut_short = bool(picked[-1][0] < now + self.horizon_s - 1e-9 and np.any(picked[-1][2]))
+        return TrajectorySnippet(now, times, positions, velocities, cut_short)
 
     def _pick(self, now: float) -> list[tuple[float, np.ndarray, np.ndarray]]:
         """Samples one point spacing apart from ``now``, and the last one."""

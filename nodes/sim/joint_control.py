@@ -65,19 +65,6 @@ class Trajectory:
         return any(float(np.max(np.abs(p.positions - first))) > 1e-9 for p in self.points)
 
     @property
-    def motion_end(self) -> float:
-        """When (s from its start) it reaches the position it then holds to its last point:
-        a commander that pads its snippets with a hold, so a late one is not refused, has
-        still only commanded the motion up to here."""
-        last = self.points[-1].positions
-        end = self.points[-1].time_from_start
-        for point in reversed(self.points):
-            if float(np.max(np.abs(point.positions - last))) > 1e-9:
-                break
-            end = point.time_from_start
-        return end
-
-    @property
     def hold_end(self) -> float:
         """For a trajectory that holds still: its last point's time, or the one before when
         the last only pads the hold (a commander's margin for arriving late, as the arm node's
@@ -230,14 +217,18 @@ class TrajectoryController:
 
     def ends_at(self, now: float) -> tuple[float, bool, float] | None:
         """How far ahead the trajectory playing (or about to) commands the arm (s, unscaled),
-        whether it moves it, and when it starts; None: none. A moving one commands up to the
-        end of its motion (the hold that may follow is not motion commanded); one that holds
-        still, up to its last point before a trailing pad (``Trajectory.hold_end``)."""
+        whether it moves it, and when it starts; None: none. Moving or not, it commands up to
+        its last point before a trailing pad (``Trajectory.hold_end``): a snippet whose motion
+        comes to rest within its horizon commands that rest too (the end of a move; paced on
+        the motion's end, the sim stopped short of it, where no clock tick came to make the
+        commander send the next snippet, and waited out its stall patience, 0.5 s of wall
+        time, at the end of most moves). The pad, only there so a late snippet is not
+        refused, is not commanded."""
         traj = self._pending or self._current
         if traj is None:
             return None
         moves, start = traj.moves, traj.start_s or now
-        return start + (traj.motion_end if moves else traj.hold_end), moves, start
+        return start + traj.hold_end, moves, start
 
     def update(self, now: float, dt: float, scaling: float, q_measured: np.ndarray,
                v_measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
