@@ -65,6 +65,17 @@ class Trajectory:
         return any(float(np.max(np.abs(p.positions - first))) > 1e-9 for p in self.points)
 
     @property
+    def motion_end(self) -> float:
+        """When (s from its start) it reaches the position it then holds to its last point."""
+        last = self.points[-1].positions
+        end = self.points[-1].time_from_start
+        for point in reversed(self.points):
+            if float(np.max(np.abs(point.positions - last))) > 1e-9:
+                break
+            end = point.time_from_start
+        return end
+
+    @property
     def hold_end(self) -> float:
         """For a trajectory that holds still: its last point's time, or the one before when
         the last only pads the hold (a commander's margin for arriving late, as the arm node's
@@ -217,18 +228,23 @@ class TrajectoryController:
 
     def ends_at(self, now: float) -> tuple[float, bool, float] | None:
         """How far ahead the trajectory playing (or about to) commands the arm (s, unscaled),
-        whether it moves it, and when it starts; None: none. Moving or not, it commands up to
-        its last point before a trailing pad (``Trajectory.hold_end``): a snippet whose motion
-        comes to rest within its horizon commands that rest too (the end of a move; paced on
-        the motion's end, the sim stopped short of it, where no clock tick came to make the
-        commander send the next snippet, and waited out its stall patience, 0.5 s of wall
-        time, at the end of most moves). The pad, only there so a late snippet is not
-        refused, is not commanded."""
+        whether the sim is to wait there as for a motion, and when it starts; None: none.
+
+        A moving one commands up to the end of its motion (the pad that may follow only keeps
+        a late snippet from being refused); one that holds still, up to its last point before
+        the pad (``Trajectory.hold_end``). A moving one that comes to rest before its last
+        unpadded point (the end of a move) is waited on as a hold: its commander reacts to
+        the arm arriving, and no clock tick comes while the sim waits to make it send the
+        next snippet, so the sim waits for it no longer than for a hold (waited on as a
+        motion, the sim sat out its 0.5 s stall patience at the end of most moves)."""
         traj = self._pending or self._current
         if traj is None:
             return None
         moves, start = traj.moves, traj.start_s or now
-        return start + traj.hold_end, moves, start
+        if not moves:
+            return start + traj.hold_end, False, start
+        comes_to_rest = traj.motion_end < traj.hold_end - 1e-9
+        return start + traj.motion_end, not comes_to_rest, start
 
     def update(self, now: float, dt: float, scaling: float, q_measured: np.ndarray,
                v_measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

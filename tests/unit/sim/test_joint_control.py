@@ -120,14 +120,15 @@ def test_forward_position_commands_are_checked_and_held_within_velocity_limits()
     assert np.allclose(q, Q0 + 1.0)
 
 
-def test_the_sim_paces_on_a_snippets_last_unpadded_point():
+def test_the_sim_paces_on_a_motions_end_and_waits_there_as_for_a_hold_if_it_comes_to_rest():
     ctrl = TrajectoryController(Q0)
     q0, q1, q2 = list(Q0), list(Q0 + 0.1), list(Q0 + 0.2)
-    # the motion comes to rest at 0.06 and the snippet holds it to its horizon (0.08)
+    # the motion comes to rest at 0.06 and the snippet holds it to its horizon (0.08): the
+    # commander reacts to the arm arriving, so the sim waits for it as for a hold
     resting = [(0.02, q0, [0.0] * 6, [], []), (0.06, q1, [0.0] * 6, [], []),
                (0.08, q1, [0.0] * 6, [], []), (0.58, q1, [0.0] * 6, [], [])]
     assert not ctrl.receive(list(JOINTS), 10.0, resting, now=10.0)
-    assert ctrl.ends_at(10.0) == (pytest.approx(10.08), True, 10.0)
+    assert ctrl.ends_at(10.0) == (pytest.approx(10.06), False, 10.0)
     # cut short mid-motion (the setpoints ran out at 0.04): commanded up to the cut only
     cut = [(0.02, q1, [0.0] * 6, [], []), (0.04, q2, [0.0] * 6, [], []),
            (0.54, q2, [0.0] * 6, [], [])]
