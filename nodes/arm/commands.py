@@ -52,11 +52,6 @@ class TrajectorySnippet:
     times: tuple[float, ...]  #: each point's time_from_start (s)
     positions: np.ndarray  #: (n, 6) rad
     velocities: np.ndarray  #: (n, 6) rad/s, the last row zero
-    #: Its motion ends short of the horizon, the arm still moving: the setpoints ran out
-    #: (the executor computing, say). Whoever plays it reaches that end soon, and the sim
-    #: holds its clock there until a longer snippet comes: the next setpoint is sent on at
-    #: once, not a tick of the clock later (the clock may be the one held).
-    cut_short: bool = False
 
     @property
     def end_s(self) -> float:
@@ -139,8 +134,7 @@ class JointStreamer:
         times = (*times, times[-1] + LATE_HOLD_S)
         positions = np.vstack([positions, positions[-1]])
         velocities = np.vstack([velocities, velocities[-1]])
-        cut_short = bool(picked[-1][0] < now + self.horizon_s - 1e-9 and np.any(picked[-1][2]))
-        return TrajectorySnippet(now, times, positions, velocities, cut_short)
+        return TrajectorySnippet(now, times, positions, velocities)
 
     def _pick(self, now: float) -> list[tuple[float, np.ndarray, np.ndarray]]:
         """Samples one point spacing apart from ``now``, and the last one."""
@@ -168,6 +162,16 @@ class JointStreamer:
             return self.controller.q_cmd.copy()
         best = min(self._samples, key=lambda s: abs(s[0] - target))
         return best[1].copy()
+
+
+def setpoint_tick_gap(now: float, ticked_at: float, command_rate_hz: float) -> float:
+    """The least time (s, node clock) since the last command for a new setpoint to send the
+    next at once: half a tick, so a setpoint and the timer do not both send one; but none on a
+    clock that has not moved since the last command. The sim holds its clock at the end of
+    the last snippet until a longer one comes, so no timer tick comes either (debounced, the
+    sim waited out its stall patience, 0.5 s of wall time, each time a late executor tick let
+    the snippets run out)."""
+    return 0.0 if now == ticked_at else 0.5 / command_rate_hz
 
 
 def stream_time_or_nan(controller: ArmController) -> float:

@@ -34,6 +34,7 @@ from ur_dashboard_msgs.msg import RobotMode, SafetyMode
 from msgs_py import MessageError, drivers
 from msgs_py import ros as msg_codecs
 from msgs_py.ros import ns_to_stamp
+from nodes.arm.commands import setpoint_tick_gap
 from nodes.arm.config import ARM_PARAMETERS, ArmConfig
 from nodes.arm.core import ArmCore, ArmOutputs
 from nodes.common.lease import LeaseConfig
@@ -62,7 +63,6 @@ class ArmNode(Node):
         self._status_sent: tuple | None = None
         self._status_at = 0.0
         self._ticked_at = -1.0  # node clock (s) of the last tick
-        self._cut_short = False  # the last snippet sent ran out of setpoints while moving
         self._tick_lock = threading.Lock()
         inputs = ReentrantCallbackGroup()
         ticks = MutuallyExclusiveCallbackGroup()
@@ -145,11 +145,9 @@ class ArmNode(Node):
             return
         # New setpoints lengthen what the arm can be commanded: send it now, not at the next
         # tick of the clock, so the driver's trajectory never runs short while the executor
-        # streams (the sim waits for it; a real arm would slow down). After a snippet cut
-        # short, at once, even on the same clock: the sim holds its clock at that snippet's
-        # end until a longer one comes (debounced on the clock, it waited out its stall
-        # patience, 0.5 s of wall time, 61 times in a default run).
-        self.tick(min_gap=0.0 if self._cut_short else 0.5 / self.config.command_rate_hz)
+        # streams (the sim waits for it; a real arm would slow down); see setpoint_tick_gap.
+        self.tick(min_gap=setpoint_tick_gap(self._now(), self._ticked_at,
+                                            self.config.command_rate_hz))
 
     def on_unlock(self, request: Trigger.Request, response: Trigger.Response):
         with self.lock:
@@ -186,7 +184,6 @@ class ArmNode(Node):
             self._call_dashboard(call)
         if out.trajectory is not None:
             snippet = out.trajectory
-            self._cut_short = snippet.cut_short
             self.pub_command.publish(trajectory_msg(
                 ns_to_stamp(round(snippet.start_s * 1e9)), ur10e.ARM_JOINTS, snippet.times,
                 snippet.positions, snippet.velocities))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from msgs_py.drivers import ROBOT_RUNNING, SAFETY_NORMAL, SAFETY_PROTECTIVE_STOP
+from nodes.arm.commands import setpoint_tick_gap
 from nodes.arm.config import ArmConfig
 from nodes.arm.core import ArmCore
 from nodes.arm.readiness import DriverState, judge
@@ -199,3 +200,9 @@ def test_ik_failures_are_refused_with_the_reason():
     result = core.on_setpoint([2.5, 0.0, 0.2], tool_down_quaternion(0.0), "world", 0.0)
     assert not result.accepted and "reach" in result.reason
     assert solve_tcp_ik(tcp_pose(HOME_JOINTS), HOME_JOINTS).ok
+
+
+def test_a_setpoint_on_a_held_clock_is_sent_on_at_once_else_at_most_one_per_half_tick():
+    rate = 50.0
+    assert setpoint_tick_gap(10.0, 10.0, rate) == 0.0  # the sim holds its clock: no tick comes
+    assert setpoint_tick_gap(10.005, 10.0, rate) == pytest.approx(0.01)  # a wall clock runs on
