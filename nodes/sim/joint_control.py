@@ -66,7 +66,9 @@ class Trajectory:
 
     @property
     def motion_end(self) -> float:
-        """When (s from its start) it reaches the position it then holds to its last point."""
+        """When (s from its start) it reaches the position it then holds to its last point:
+        a commander that pads its snippets with a hold, so a late one is not refused, has
+        still only commanded the motion up to here."""
         last = self.points[-1].positions
         end = self.points[-1].time_from_start
         for point in reversed(self.points):
