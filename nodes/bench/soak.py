@@ -198,7 +198,7 @@ def one_goal(soak: SoakCell, goal: int, seed: int, scene: Scene, before: dict[st
         # a block the goal left in the fingers counts as lost (the sim never sees it rest)
         "lost": None if m["blocks_lost"] is None else m["blocks_lost"] + held_at_end(m),
         "contacts": m["unintended_contacts"],
-        "sim_start_s": start_sim, "sim_s": monitor.sim_time - start_sim,
+        "sim_start_s": start_sim, "sim_s": monitor.run_time - start_sim,
         "wall_s": result.wall_time_s,
         "inherited": "; ".join(inherited),
         "rss_mb": {n: s.rss_mb if s else None for n, s in samples.items()},

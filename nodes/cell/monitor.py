@@ -46,6 +46,9 @@ class RunMonitor:
         self.first_image: Any = None
         self.last_image: Any = None
         self.sim_time = 0.0
+        #: the simulated time when the goal's result came (None: not yet): the run's cycle
+        #: time; ``sim_time`` goes on while the last ground truth and events settle
+        self.ended_at: float | None = None
         self.since_ns = 0  # detections, ground truth and events stamped before are not this goal's
         # When data last came from the nodes heard steadily (time.monotonic(); None: not yet):
         # on another computer, their silence says the link is down (nodes/cell/discovery.py).
@@ -87,6 +90,25 @@ class RunMonitor:
             self.first_image = self.last_image = None
             self.timeline = TimelineBuilder()
             self.since_ns = since_ns
+            self.ended_at = None
+
+    def goal_ended(self) -> None:
+        """The goal's result came: its simulated time is the run's (the last ground truth's
+        stamp, at most one of its periods early)."""
+        with self.lock:
+            self.ended_at = self.sim_time
+
+    def settled(self, after_s: float) -> bool:
+        """Whether a ground truth stamped ``after_s`` of simulated time past the goal's end
+        has come (the blocks' final poses and the sim's last events are in)."""
+        with self.lock:
+            return self.ended_at is not None and self.sim_time >= self.ended_at + after_s
+
+    @property
+    def run_time(self) -> float:
+        """The simulated time the goal took to its result (without a result: so far)."""
+        with self.lock:
+            return self.sim_time if self.ended_at is None else self.ended_at
 
     def _keep(self, attr: str, decode: Callable[[Any], Any]) -> Callable[[Any], None]:
         def callback(msg: Any) -> None:

@@ -42,6 +42,10 @@ GRAPH_PERIOD_S = 0.5
 #: A goal already running when a node is lost is canceled; its result is waited for this long
 #: (the executor may be the computer that is cut off) (s).
 UNREACHABLE_CANCEL_S = 10.0
+#: After the result, the last ground truth and events are waited for: one stamped this long
+#: (s of simulated time) after it, at most SETTLE_WALL_S of wall time.
+SETTLE_SIM_S = 0.3
+SETTLE_WALL_S = 2.0
 
 
 @dataclass
@@ -135,8 +139,9 @@ def run(
             on_progress(monitor, time.monotonic() - wall0)
             if sender.outcome:
                 outcome = OUTCOMES.get(sender.outcome, sender.outcome)
-                settle = time.monotonic() + 2.0
-                while time.monotonic() < settle:  # last ground truth and events
+                monitor.goal_ended()
+                settle = time.monotonic() + SETTLE_WALL_S
+                while time.monotonic() < settle and not monitor.settled(SETTLE_SIM_S):
                     executor.spin_once(timeout_sec=0.1)
                 break
         else:
@@ -193,7 +198,8 @@ def run_metrics(monitor: RunMonitor, scene: Scene, result: RunResult) -> dict[st
                                                                "blocked_descents")},
         "planning_time_s": [p.planning_time_s for p in plans],
         "execution_time_s": figures.get("execution_time_s"),
-        "sim_time_s": monitor.sim_time,
+        # to the goal's result (not the settling after it)
+        "sim_time_s": monitor.run_time,
         "wall_time_s": result.wall_time_s,
         "unintended_contacts": events.unintended_contacts if events else None,
         "blocks_lost": events.blocks_lost if events else None,

@@ -208,9 +208,10 @@ def write_report(report: Path, monitor: RunMonitor, metrics: dict[str, Any]) -> 
     if plans:
         save_plan(plans[0], report / "plan.json")
         draw_plan(plans[0], report / "plan.png")
+    end = monitor.run_time
     with monitor.lock:
         spans = monitor.timeline.finish(
-            monitor.sim_time, {e["block"]: e["pos_err_m"] for e in metrics["final_errors"]})
+            end, {e["block"]: e["pos_err_m"] for e in metrics["final_errors"]})
     write_timeline(spans, report / "timeline.png", report / "timeline.json",
                    title=f"{report.name}: {metrics['outcome']}, {len(spans)} actions",
                    tolerance_m=PLACED_TOLERANCE_XY)
