@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import os
 import signal
 import sys
 import threading
@@ -156,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-compression", action="store_true",
                         help="store MCAP chunks uncompressed (default: zstd)")
     parser.add_argument("--quiet", action="store_true", help="print the summary line only")
+    parser.add_argument("--nice", type=int, default=0, metavar="N",
+                        help="lower this process's CPU priority by N, as nice(1) does (a "
+                        "recorder beside a cell on a small computer)")
     return parser
 
 
@@ -179,6 +183,8 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f"densepack-record: {output} exists; give another --output", file=sys.stderr)
         return 2
     bags.typestore()  # fail early on a missing interface package
+    if opts.nice:
+        os.nice(opts.nice)
     die_with_launcher()
     # Ctrl-C and SIGTERM only raise a flag the loop checks between spins: rclpy's own handlers
     # shut the context down under a spin in progress, which then dies of an RCLError.

@@ -9,6 +9,7 @@ replays a bag written here into an in-process subscriber: same bytes, same spaci
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import threading
@@ -112,14 +113,17 @@ def test_a_recording_of_the_sim_reads_back_with_the_mcap_reader(ros, tmp_path):
     assert pixels.shape == (960, 1280, 3) and 20 < pixels.mean() < 235
 
 
-def test_sigterm_closes_a_valid_bag_with_the_latched_message(tmp_path):
+def test_sigterm_closes_a_valid_bag_with_the_latched_message_recorded_niced(tmp_path):
     status = ("from densepack_interfaces.msg import ExecutorStatus", "ExecutorStatus",
               "ExecutorStatus(state=ExecutorStatus.STATE_DONE, detail='all placed')")
     pub = spawn_publisher("/record_test/status", *status, count=1, qos="LATCHED", linger=60)
     bag = tmp_path / "latched"
-    recorder = start_recorder(bag, "/record_test/status")
+    recorder = start_recorder(bag, "/record_test/status", "--nice", "5")
     try:
         wait_for_line(recorder, "recording /record_test/status", timeout=60)
+        # beside a cell it yields the CPU to the cell's nodes
+        assert os.getpriority(os.PRIO_PROCESS, recorder.pid) == os.getpriority(
+            os.PRIO_PROCESS, 0) + 5
         time.sleep(1.0)
         out = stop(recorder, signal.SIGTERM)
     finally:
