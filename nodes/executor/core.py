@@ -26,6 +26,7 @@ from msgs_py.status import ArmStatus, GripperStatus
 from msgs_py.status import ExecutorState as State
 from nodes.executor import act, faults, observe, recover, replan, stop
 from nodes.executor.belief import Belief
+from nodes.executor.camera import Camera, count_detection
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.decisions import (
     ActionDone,
@@ -51,7 +52,6 @@ from nodes.executor.faults import ArmHold
 from nodes.executor.inputs import Inbox
 from nodes.executor.ledger import activity_of
 from nodes.executor.motion import ToolPose
-from nodes.executor.observe import Camera
 from nodes.executor.player import Player
 from nodes.executor.recovery import holds_block
 from nodes.executor.replan import PlannerLink
@@ -125,8 +125,8 @@ class ExecutorCore:
     def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
         self.inbox.on_tcp(pose, stamp_s)
 
-    def on_arm_joints(self, q: Sequence[float]) -> None:
-        self.inbox.arm_joints = tuple(q)
+    def on_arm_joints(self, q: Sequence[float], stamp_s: float | None = None) -> None:
+        self.inbox.on_arm_joints(q, stamp_s)
 
     def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
         self.inbox.on_finger_gap(gap, stamp_s)
@@ -162,7 +162,7 @@ class ExecutorCore:
     def on_detection(self, detection: BlockSet) -> None:
         if self.state is not State.OBSERVING or not self.camera.accepts(detection):
             return
-        observe.count_detection(self.camera, detection.stamp_ns, self._now, self.report)
+        count_detection(self.camera, detection.stamp_ns, self._now, self.report)
         if self.player.busy:  # moving on towards the next block: judged on arrival
             self.camera.arrived = detection
             return
@@ -224,9 +224,9 @@ class ExecutorCore:
             self._started_at = now
         if self.state is State.IDLE and not self.player.busy:
             self._decide(self._at_rest[State.IDLE]())  # the park it starts streams at once
-        if self.state is State.OBSERVING and self.camera.due(now, self.inbox.tcp):
-            self.report.log(f"frame on the way, the tool {self.camera.near_dist * 1e3:.0f} mm "
-                            "from the pose picked for it")
+        if self.state is State.OBSERVING:
+            observe.trigger_when_due(self.camera, self.view, self.inbox, self.belief, self.report,
+                                     now)
         if self.guard.engaged:
             self._arm_held()
         elif self.player.busy:

@@ -24,9 +24,10 @@ class ExecutorInputs(Protocol):
     def on_tcp(self, pose: ToolPose, stamp_s: float | None = None) -> None:
         """The arm: the measured TCP, taken at ``stamp_s`` (ROS time, s; None: now)."""
 
-    def on_arm_joints(self, q: Sequence[float]) -> None:
-        """The arm driver's joint states (kinematic order, rad): which of the IK's branches
-        the arm is on, for predicting what it covers in the camera's view."""
+    def on_arm_joints(self, q: Sequence[float], stamp_s: float | None = None) -> None:
+        """The arm driver's joint states (kinematic order, rad) at ``stamp_s``: which of the
+        IK's branches the arm is on, and what it covers in the camera's view now and a
+        frame's delay on (for predicting and for triggering a look on the way)."""
 
     def on_finger_gap(self, gap: float, stamp_s: float | None = None) -> None:
         """The gripper's finger joints: the gap between the pads (m) at ``stamp_s``."""
@@ -77,6 +78,9 @@ class Inbox:
     tcp: ToolPose | None = None
     tcp_stamp: float | None = None  #: ROS time (s) the TCP was measured at (None: now)
     arm_joints: tuple[float, ...] | None = None  #: the latest (kinematic order, rad)
+    arm_joints_stamp: float | None = None  #: ROS time (s) of ``arm_joints``
+    #: the joints' rates (rad/s) between the last two joint states (None: not known)
+    arm_rates: tuple[float, ...] | None = None
     finger_gap: float | None = None
     gaps: list[tuple[float, float]] = field(default_factory=list)  #: (time s, gap m)
     readings: list[GripperStatus] = field(default_factory=list)
@@ -85,6 +89,16 @@ class Inbox:
 
     def on_tcp(self, pose: ToolPose, stamp_s: float | None) -> None:
         self.tcp, self.tcp_stamp = pose, stamp_s
+
+    def on_arm_joints(self, q: Sequence[float], stamp_s: float | None) -> None:
+        q = tuple(float(v) for v in q)
+        before, then = self.arm_joints, self.arm_joints_stamp
+        self.arm_rates = None
+        if (stamp_s is not None and then is not None and stamp_s > then and before is not None
+                and len(before) == len(q)):
+            self.arm_rates = tuple((a - b) / (stamp_s - then) for a, b in zip(q, before,
+                                                                               strict=True))
+        self.arm_joints, self.arm_joints_stamp = q, stamp_s
 
     def on_finger_gap(self, gap: float, stamp_s: float | None) -> None:
         self.finger_gap = gap

@@ -178,7 +178,8 @@ class ExecutorNode(Node):
 
     def on_joint_state(self, msg: JointState) -> None:
         """The arm driver's joint states, kept for the next tick to read (ur_robot_driver
-        publishes them at 500 Hz: only the branch matters, so only the latest is decoded)."""
+        publishes them at 500 Hz: only the latest is decoded, its posture and the rates since
+        the one before)."""
         self._joint_state = msg
 
     def _take_joint_state(self) -> None:
@@ -189,7 +190,7 @@ class ExecutorNode(Node):
                                                         drivers.JOINT_STATES)
         q = None if values is None else values_by_name(values[0], values[1], ur10e.ARM_JOINTS)[0]
         if q is not None:
-            self.core.on_arm_joints(q)
+            self.core.on_arm_joints(q, values[2])
 
     def on_planner_status(self, msg: PlannerStatusMsg) -> None:
         status = self._decoded(msg, planner_status_from_msg, "/planner/status")

@@ -3,8 +3,10 @@
 After an action the arm looks *on its way* to the next block (``look_on_the_way``): the
 frame is taken at the first moment the arm's predicted silhouette (``visibility``) leaves
 every block to judge in view (the action's block, the blocks near where it acted, and those
-near where the next action will act), and judged once the detector says none of them is
-occluded; the blocks the arm still covers keep what was last seen of them. Only when no moment
+near where the next action will act), triggered when the measured tool gets there and the
+arm's measured posture shows them (``camera``: past that moment if need be), and judged once
+the detector says none of them is occluded; the blocks the arm still covers keep what was
+last seen of them. Only when no moment
 on the way leaves them in view, or the frame shows one covered after all, does the arm look
 from the look pose beside the workspace's robot-side edge (``near``), where it hides no
 block, or from the park pose. Only a detection of a frame taken after the executor's own
@@ -17,14 +19,13 @@ looks now and then for the planner.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
 
 from msgs_py import BlockSet, Plan
 from msgs_py.status import ExecutorState as State
 from nodes.executor.act import pick_opening
 from nodes.executor.belief import Belief
+from nodes.executor.camera import Camera
 from nodes.executor.config import ExecutorConfig
 from nodes.executor.decisions import (
     Decision,
@@ -41,6 +42,7 @@ from nodes.executor.decisions import (
     Stop,
     TakeFrame,
 )
+from nodes.executor.inputs import Inbox
 from nodes.executor.motion import ToolPose
 from nodes.executor.primitives import hover_steps, look_steps, park_steps
 from nodes.executor.replan import accept_residual
@@ -55,12 +57,9 @@ from nodes.executor.visibility import (
     look_waypoints,
     neighbours,
     script_samples,
+    shows,
 )
 
-#: On the way, the frame is taken when the measured tool comes this close to the pose picked
-#: for it (m), or passes it within PASSING_M.
-AT_POSE_M = 0.01
-PASSING_M = 0.05
 #: Of the look waypoints with the least detour, this many are tried (the quickest way wins:
 #: 2.8 s of detours in the default run's 10 looks against 4.15 s through the first one) ...
 WAYPOINTS_TRIED = 3
@@ -70,97 +69,6 @@ WAYPOINT_BLENDS = (0.12, 0.04, 0.0)
 GRASP_RETRIES = 2
 #: Idle, without a plan, with the planner waiting: the next look this soon after the last (s).
 IDLE_LOOK_SOON_S = 0.5
-#: A detection this long after its camera trigger (s) came late. Trigger, render, transfer
-#: and detection take 0.5-1.5 s in the cell; a reliable frame or detection whose lost
-#: fragment waits for the DDS writer's next heartbeat (3 s by default) takes longer.
-LATE_DETECTION_S = 2.0
-
-
-@dataclass
-class Camera:
-    """The look under way: what its frame is for, the triggers made for it, and which frame
-    counts (the first taken at or after ``trigger_ns``; None: none asked for)."""
-
-    purpose: Purpose = Purpose.START
-    triggers: int = 0
-    trigger_ns: int | None = None
-    trigger_time: float = 0.0  #: when the last trigger went out (s)
-    frame_taken: bool = False  #: the camera answered it: the arm may move on
-    arrived: BlockSet | None = None  #: the detection, come while the arm moved on
-    want_trigger: bool = False  #: for the next tick's outputs
-    last_idle_look: float | None = None
-    #: on the way: trigger where the measured tool passes this pose (the arm follows its
-    #: setpoints a servo delay and more behind: the script's time would be early)
-    trigger_near: ToolPose | None = None
-    near_dist: float = math.inf  #: how close the measured tool has come to it so far (m)
-    on_the_way: bool = False  #: the frame is taken with the arm in view, moving on
-    judge: frozenset[int] = frozenset()  #: on the way: blocks the frame must show uncovered
-
-    def begin(self, purpose: Purpose, keep_tries: bool = False) -> None:
-        self.purpose = purpose
-        if not keep_tries:
-            self.triggers = 0
-        self.trigger_ns = None
-        self.arrived = None
-        self.trigger_near = None
-        self.near_dist = math.inf
-        self.on_the_way = False
-        self.judge = frozenset()
-
-    def due(self, now: float, tcp: ToolPose | None, force: bool = False) -> bool:
-        """Trigger now if the measured tool ``tcp`` is at the pose picked on the way, or has
-        passed it (it came within PASSING_M and goes away again), or ``force``."""
-        if self.trigger_near is None:
-            return False
-        dist = math.inf if tcp is None else tcp.distance_to(self.trigger_near)
-        passed = self.near_dist < PASSING_M and dist > self.near_dist
-        self.near_dist = min(self.near_dist, dist)
-        if not (force or dist < AT_POSE_M or passed):
-            return False
-        self.trigger_near = None
-        self.trigger(now)
-        return True
-
-    def trigger(self, now: float) -> None:
-        self.triggers += 1
-        self.trigger_time = now
-        self.trigger_ns = round(now * 1e9)
-        self.frame_taken = False
-        self.want_trigger = True
-
-    def on_frame_taken(self, stamp_ns: int) -> None:
-        """The camera answered the trigger: its frame was taken at ``stamp_ns``."""
-        if self.trigger_ns is not None:
-            self.trigger_ns = max(self.trigger_ns, stamp_ns)
-            self.frame_taken = True
-
-    def late(self, frame_stamp_ns: int, now: float) -> str | None:
-        """Where the time went, when the detection of the frame stamped ``frame_stamp_ns``
-        comes LATE_DETECTION_S or more after the trigger (None: in time): so that a slow
-        link shows in a long run's log, named by its side of the camera."""
-        waited = now - self.trigger_time
-        if waited < LATE_DETECTION_S:
-            return None
-        taken = frame_stamp_ns * 1e-9 - self.trigger_time
-        return (f"detection {waited:.1f} s after the camera trigger: the frame taken "
-                f"{taken:.1f} s after the trigger, its detection here {waited - taken:.1f} s "
-                "after that")
-
-    def accepts(self, detection: BlockSet) -> bool:
-        """Whether ``detection`` is of the frame asked for (then no other counts)."""
-        if self.trigger_ns is None or detection.stamp_ns < self.trigger_ns:
-            return False
-        self.trigger_ns = None
-        return True
-
-
-def count_detection(camera: Camera, frame_stamp_ns: int, now: float, report: Report) -> None:
-    """An accepted detection: one more observation; a late one counted and explained."""
-    report.count("observations")
-    late = camera.late(frame_stamp_ns, now)
-    if late is not None:
-        report.count("late_detections")
-        report.log(late)
 
 
 def observe(d: Observe, camera: Camera, belief: Belief, cfg: ExecutorConfig,
@@ -236,6 +144,28 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
                     best = (way, at, samples)
                 break
     return best
+
+
+def trigger_when_due(camera: Camera, view: View | None, inbox: Inbox, belief: Belief,
+                     report: Report, now: float) -> None:
+    """Observing on the way: the frame is triggered once the measured tool has reached the
+    pose picked for it and the arm's measured posture leaves the blocks to judge in view."""
+    if camera.due(now, inbox.tcp, posture_check(view, inbox, belief, camera)):
+        report.log(f"frame on the way, the tool {camera.near_dist * 1e3:.0f} mm from the pose "
+                   "picked for it" + (f", {camera.held_back} tick(s) on: the arm covered a block "
+                                      "to judge there" if camera.held_back else ""))
+
+
+def posture_check(view: View | None, inbox: Inbox, belief: Belief, camera: Camera
+                  ) -> Callable[[], bool] | None:
+    """For a look on the way: whether the arm's measured posture leaves the blocks the frame
+    must show in view (``visibility.shows``); None without a camera model, joint states or
+    blocks to judge (the pose picked for the frame decides alone)."""
+    q = inbox.arm_joints
+    judged = {i: belief.expected[i] for i in camera.judge if i in belief.expected}
+    if view is None or q is None or not judged or not camera.on_the_way:
+        return None
+    return lambda: shows(view, q, inbox.arm_rates, judged)
 
 
 def go_on(pending: Plan | None) -> Decision:

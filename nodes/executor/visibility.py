@@ -128,6 +128,21 @@ def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
     return None if best is None else best[1]
 
 
+#: A frame triggered now is taken this much later (s): the joint states' age at the tick, the
+#: tick, and the trigger's way to the camera (a tick and a half of the sim's clock).
+FRAME_DELAY_S = 0.06
+
+
+def shows(view: View, q: Sequence[float], rates: Sequence[float] | None,
+          blocks: Mapping[int, Pose2D]) -> bool:
+    """Whether the arm at joints ``q``, and where its joint ``rates`` (rad/s; None: at rest)
+    take it FRAME_DELAY_S later, covers none of ``blocks``' tags."""
+    postures = [np.asarray(q, float)]
+    if rates is not None:
+        postures.append(postures[0] + FRAME_DELAY_S * np.asarray(rates, float))
+    return not any(view.covered(p, blocks) for p in postures)
+
+
 #: Waypoints to look from lie on a grid this fine (m) over the workspace and its robot side.
 WAYPOINT_STEP = 0.05
 
