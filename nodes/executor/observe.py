@@ -7,13 +7,13 @@ near where the next action will act), triggered when the measured tool gets ther
 arm's measured posture shows them (``camera``: past that moment if need be), and judged once
 the detector says none of them is occluded; the blocks the arm still covers keep what was
 last seen of them. Only when no moment on the way leaves them in view, or the frame shows
-one covered after all, does the arm look from the look pose beside the workspace's
-robot-side edge (``near``), where it hides no block, or from the park pose. Only a detection of a frame taken after the executor's own
-trigger counts. From the look pose, once the camera says the frame is taken, the arm heads
-for the next block at travel height (nothing is touched before the world is judged). The
-frame is judged for its ``Purpose``: every block where it should be after an action, a plan
-that starts from the world, every block at its goal. Idle, without a plan, the executor
-looks now and then for the planner.
+one covered after all, does the arm look from the look pose beside the workspace's robot-side
+edge (``near``), where it hides no block, or from the park pose. Only a detection of a
+frame taken after the executor's own trigger counts. From the look pose, once the camera
+says the frame is taken, the arm heads for the next block at travel height (nothing is
+touched before the world is judged). The frame is judged for its ``Purpose``: every block
+where it should be after an action, a plan that starts from the world, every block at its
+goal. Idle, without a plan, the executor looks now and then for the planner.
 """
 
 from __future__ import annotations

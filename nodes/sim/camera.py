@@ -165,29 +165,84 @@ class SimCamera:
                 & (uv[:, 1] >= margin_px) & (uv[:, 1] <= self.height - 1 - margin_px))
 
 
-def _render_pinhole(client, camera: SimCamera) -> np.ndarray:
-    """(H, W, 3) uint8 RGB of the pinhole ``camera`` (TinyRenderer, headless)."""
+#: TinyRenderer's depth where no surface is: the far plane, 1 normalised (0.99999994 as it
+#: comes, in float32); a surface in the cell lies far short of it (the table top: 0.95).
+FAR_DEPTH = 1.0 - 1e-6
+#: The backdrop's colour is probed in an image this many times smaller than the camera's.
+BACKDROP_PROBE_SCALE = 40
 
-    _, _, rgba, _, _ = client.getCameraImage(
-        camera.width, camera.height, camera.view_matrix(), camera.projection_matrix(),
-        renderer=pybullet.ER_TINY_RENDERER, flags=pybullet.ER_NO_SEGMENTATION_MASK,
-        shadow=0)
-    return np.asarray(rgba, dtype=np.uint8).reshape(camera.height, camera.width, 4)[..., :3]
+
+@dataclass(frozen=True)
+class Backdrop:
+    """A flat-coloured body that fills the camera's whole view behind everything else (the
+    table): TinyRenderer shades it one colour, ``rgb``, yet rasterising it over every pixel
+    took 180 of a frame's 210 ms. So a frame is rendered without it (its ``rgba`` alpha 0,
+    which TinyRenderer skips) and ``rgb`` painted where no surface was: the same pixels."""
+
+    body: int
+    rgba: tuple[float, float, float, float]
+    rgb: tuple[int, int, int]
+
+
+def probe_backdrop(client, body: int, rgba: tuple[float, float, float, float],
+                   camera: SimCamera) -> Backdrop | None:
+    """``body`` as the ``camera``'s backdrop, when it is the only body and shows in one
+    colour over the whole of a small image of the view; else None (render it as it is)."""
+    k = BACKDROP_PROBE_SCALE
+    view = canvas_camera(camera)
+    small = replace(view, width=max(4, view.width // k), height=max(3, view.height // k),
+                    fx=view.fx / k, fy=view.fy / k, cx=(view.cx + 0.5) / k - 0.5,
+                    cy=(view.cy + 0.5) / k - 0.5)
+    if client.getNumBodies() != 1:
+        return None
+    rgb, depth = render_pinhole(client, small)
+    colours = np.unique(rgb.reshape(-1, 3), axis=0)
+    if len(colours) != 1 or np.any(depth > FAR_DEPTH):
+        return None
+    return Backdrop(body, rgba, tuple(int(v) for v in colours[0]))
+
+
+def render_pinhole(client, camera: SimCamera, backdrop: Backdrop | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) uint8 RGB and (H, W) depth of the pinhole ``camera`` (TinyRenderer,
+    headless), the ``backdrop`` painted in rather than rasterised."""
+    if backdrop is not None:
+        client.changeVisualShape(backdrop.body, -1, rgbaColor=(*backdrop.rgba[:3], 0.0))
+    try:
+        _, _, rgba, depth, _ = client.getCameraImage(
+            camera.width, camera.height, camera.view_matrix(), camera.projection_matrix(),
+            renderer=pybullet.ER_TINY_RENDERER, flags=pybullet.ER_NO_SEGMENTATION_MASK,
+            shadow=0)
+    finally:
+        if backdrop is not None:
+            client.changeVisualShape(backdrop.body, -1, rgbaColor=backdrop.rgba)
+    rgb = np.asarray(rgba, dtype=np.uint8).reshape(camera.height, camera.width, 4)[..., :3]
+    depth = np.asarray(depth, dtype=np.float32).reshape(camera.height, camera.width)
+    if backdrop is not None:
+        rgb = np.where((depth > FAR_DEPTH)[..., None], np.uint8(backdrop.rgb), rgb)
+    return rgb, depth
 
 
 def render_rgb(client, camera: SimCamera, noise_std: float = 0.0,
-               rng: np.random.Generator | None = None) -> np.ndarray:
+               rng: np.random.Generator | None = None,
+               backdrop: Backdrop | None = None) -> np.ndarray:
     """Render (H, W, 3) uint8 RGB as ``camera`` images the scene: through its lens
-    (distortion), blurred, with shot noise and ``noise_std`` read noise (grey levels)."""
+    (distortion), blurred, with shot noise and ``noise_std`` read noise (grey levels);
+    the ``backdrop`` (``probe_backdrop``) painted in."""
+    image = render_pinhole(client, canvas_camera(camera), backdrop)[0].astype(np.float32)
     if camera.intrinsics.distorted:
-        warp = lens_warp(camera.intrinsics)
-        c = warp.canvas
-        canvas = replace(camera, width=c.width, height=c.height, cx=c.cx, cy=c.cy,
-                         distortion=NO_DISTORTION, distortion_model=DISTORTION_MODEL)
-        image = warp.apply(_render_pinhole(client, canvas).astype(np.float32))
-    else:
-        image = _render_pinhole(client, camera).astype(np.float32)
+        image = lens_warp(camera.intrinsics).apply(image)
     return expose(image, camera, noise_std, rng)
+
+
+def canvas_camera(camera: SimCamera) -> SimCamera:
+    """The pinhole camera TinyRenderer renders for ``camera``: itself, or, through a lens,
+    one on a canvas holding every ideal pixel the lens brings into view (``lens_warp``)."""
+    if not camera.intrinsics.distorted:
+        return camera
+    c = lens_warp(camera.intrinsics).canvas
+    return replace(camera, width=c.width, height=c.height, cx=c.cx, cy=c.cy,
+                   distortion=NO_DISTORTION, distortion_model=DISTORTION_MODEL)
 
 
 def expose(image: np.ndarray, camera: SimCamera, noise_std: float = 0.0,

@@ -23,7 +23,7 @@ from msgs_py.drivers import SAFETY_PROTECTIVE_STOP
 from nodes.common.paths import asset_path
 from nodes.robot import ur10e
 from nodes.sim import robot_model as rm
-from nodes.sim.camera import SimCamera, render_rgb
+from nodes.sim.camera import SimCamera, probe_backdrop, render_rgb
 from nodes.sim.config import SimConfig
 from nodes.sim.events import ContactKind, EventMonitor
 from nodes.sim.fingers import Fingers
@@ -68,6 +68,8 @@ class SimWorld:
         self._block_collision = self.client.createCollisionShape(
             pybullet.GEOM_BOX, halfExtents=[rm.BLOCK_SIZE / 2] * 3)
         self._make_table()
+        # before any other body: the table fills the camera's view behind everything else
+        self.backdrop = probe_backdrop(self.client, self.table, TABLE_RGBA, camera)
         self._make_robot()
         self.robot_state = RobotState(config.speed_slider, config.protective_stop_unlock_after_s)
         self.motion: TrajectoryController | ForwardPositionController = (
@@ -362,4 +364,4 @@ class SimWorld:
 
     def render(self) -> np.ndarray:
         """One overhead camera frame (H, W, 3) uint8; physics does not advance meanwhile."""
-        return render_rgb(self.client, self.camera, self.noise_std, self.rng)
+        return render_rgb(self.client, self.camera, self.noise_std, self.rng, self.backdrop)

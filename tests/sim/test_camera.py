@@ -14,9 +14,12 @@ from msgs_py import load_scene
 from msgs_py.ros.image import intrinsics_to_camera_info
 from nodes.bench.perception_frames import LENSES
 from nodes.common.paths import config_path
+from nodes.common.transforms import pose_matrix, tool_down_quaternion
 from nodes.detector.tags import TagFinder
+from nodes.robot import ur10e
+from nodes.robot.kinematics import solve_tcp_ik
 from nodes.sim import robot_model as rm
-from nodes.sim.camera import render_rgb
+from nodes.sim.camera import canvas_camera, render_pinhole, render_rgb
 from nodes.sim.config import CameraConfig, SimConfig
 from nodes.sim.world import SimWorld
 from tests.unit.detector.lenses import MODELS, sim_camera
@@ -194,5 +197,36 @@ def test_the_look_pose_hides_no_block_from_the_camera(y):
         world.step(2)
         seen = detect(world.render())
         assert sorted(seen) == list(range(len(spots)))
+    finally:
+        world.close()
+
+
+def test_the_table_painted_in_gives_the_pixels_of_the_table_rasterised():
+    """A frame renders without the table (its rasterisation took most of the frame's time)
+    and paints its one colour where nothing else is: the same pixels, with the arm reaching
+    low over the blocks, through a lens."""
+    camera = sim_camera("rational_polynomial")
+    world = SimWorld(SimConfig(), camera, load_scene(config_path("scenes/default.yaml")))
+    try:
+        assert world.backdrop is not None and world.backdrop.body == world.table
+        over = solve_tcp_ik(pose_matrix((0.70, 0.05, 0.12), tool_down_quaternion(0.3)),
+                            np.asarray(ur10e.WORKING_BRANCH_JOINTS, float)).q
+        for joint, q in zip(world.arm_joints, over, strict=True):
+            world.client.resetJointState(world.robot, joint, float(q))
+        view = canvas_camera(camera)
+        painted, _ = render_pinhole(world.client, view, world.backdrop)
+        rasterised, _ = render_pinhole(world.client, view)
+        assert np.array_equal(painted, rasterised)
+        assert (painted == world.backdrop.rgb).all(axis=-1).mean() > 0.5  # the table is there
+    finally:
+        world.close()
+
+
+def test_no_backdrop_where_the_table_does_not_fill_the_view():
+    """A camera that sees past the table's edge renders the table as it is."""
+    camera = dataclasses.replace(CameraConfig().model(), position=(0.7, 0.0, 6.0))
+    world = SimWorld(SimConfig(), camera, load_scene(config_path("scenes/default.yaml")))
+    try:
+        assert world.backdrop is None
     finally:
         world.close()
