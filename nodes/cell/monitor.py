@@ -27,13 +27,18 @@ from msgs_py.ros import (
 )
 from nodes.cell.timeline import TimelineBuilder
 from nodes.common.qos import LATCHED, RELIABLE, SENSOR
+from nodes.common.transports import own_profile
 
 
 class RunMonitor:
     """The latest of everything a run report needs, from the cell's topics and the goal."""
 
     def __init__(self, context: Any) -> None:
-        self.node = Node("densepack_run", context=context)
+        # its participant announces itself as often as the nodes' do (``own_profile``): the
+        # run waits until it sees every node, and one that missed its first announcement
+        # otherwise met it 3 s later
+        with own_profile():
+            self.node = Node("densepack_run", context=context)
         self.lock = threading.Lock()
         self.executor_status: Any = None
         self.planner_status: Any = None

@@ -23,10 +23,11 @@ that variable names itself; a profile file or transports the user chose are neve
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import tempfile
-from collections.abc import MutableMapping
+from collections.abc import Iterator, MutableMapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -161,3 +162,17 @@ def use_profile(env: MutableMapping[str, str], directory: Path | None = None) ->
         os.replace(scratch, path)
     env[PROFILES_ENV] = str(path)
     return path
+
+
+@contextlib.contextmanager
+def own_profile(env: MutableMapping[str, str] = os.environ) -> Iterator[Path | None]:
+    """While a process that starts the cell's nodes creates its own ROS node: the profile
+    (``use_profile``) for its participant, taken out of ``env`` again after, so that the
+    nodes it starts later choose their own (the camera's sized for frames)."""
+    path = use_profile(env)
+    try:
+        yield path
+    finally:
+        if path is not None:
+            env.pop(PROFILES_ENV, None)
+

@@ -31,6 +31,7 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, W
 
 from nodes.common.messages import canonical_type_name, import_message_type
 from nodes.common.runner import die_with_launcher, split_ros_args
+from nodes.common.transports import use_profile
 from nodes.tools import bags
 
 #: How often the graph is looked at for new topics (s, wall time).
@@ -189,6 +190,7 @@ def main(args: Sequence[str] | None = None) -> int:
     # Ctrl-C and SIGTERM only raise a flag the loop checks between spins: rclpy's own handlers
     # shut the context down under a spin in progress, which then dies of an RCLError.
     stop = stop_on_signals()
+    use_profile(os.environ)  # as the nodes': their transports, heartbeat and announcements
     rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node(
         "densepack_record", parameter_overrides=[

@@ -4,12 +4,14 @@ import xml.etree.ElementTree as ET
 
 from nodes.common.runner import NodeSpec
 from nodes.common.transports import (
+    ANNOUNCEMENT_PERIOD_S,
     FRAME_WRITER_TRANSPORTS,
     HEARTBEAT_PERIOD_S,
     PROFILES_ENV,
     TRANSPORTS_ENV,
     UDP_AFTER_RESPAWN,
     Transports,
+    own_profile,
     parse_builtin,
     profile_xml,
     size_for_frames,
@@ -88,3 +90,23 @@ def test_a_profile_or_transports_the_user_chose_are_left_alone(tmp_path):
         assert use_profile(env, tmp_path) is None
         assert env == chosen
     assert not list(tmp_path.iterdir())
+
+
+def test_a_launchers_own_profile_is_not_handed_down_to_the_nodes_it_starts(tmp_path,
+                                                                          monkeypatch):
+    monkeypatch.setattr("nodes.common.transports.profiles_dir", lambda: tmp_path)
+    env: dict[str, str] = {}
+    with own_profile(env) as path:
+        assert path is not None and env[PROFILES_ENV] == str(path)  # its own participant
+    assert PROFILES_ENV not in env  # the nodes started after choose theirs
+    chosen = {PROFILES_ENV: "/etc/mine.xml"}
+    with own_profile(chosen) as path:
+        assert path is None
+    assert chosen == {PROFILES_ENV: "/etc/mine.xml"}  # the user's file stays
+
+
+def test_participants_announce_themselves_often():
+    period = _profile(Transports()).find(".//f:participant//f:leaseAnnouncement", NS)
+    seconds = int(period.find("f:sec", NS).text) + int(period.find("f:nanosec", NS).text) * 1e-9
+    assert abs(seconds - ANNOUNCEMENT_PERIOD_S) < 1e-9 and seconds < 3.0  # Fast DDS's own: 3 s
+
