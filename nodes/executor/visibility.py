@@ -98,6 +98,33 @@ def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = No
     return out
 
 
+class CoveredAlong:
+    """What the arm covers of ``blocks`` at each of ``poses`` (None: no IK), the postures
+    chained from ``q_start`` as ``arm_postures`` chains them, worked out only as far as it
+    is asked: the search for a moment mostly ends early, and a way's every posture and
+    silhouette cost the look through a waypoint 0.2 s of the tick that ends an action."""
+
+    def __init__(self, view: View, poses: Sequence[ToolPose], blocks: Mapping[int, Pose2D],
+                 q_start: Sequence[float] | None = None) -> None:
+        self.view, self.poses, self.blocks = view, poses, blocks
+        self.q_ref = np.asarray(ur10e.WORKING_BRANCH_JOINTS if q_start is None else q_start,
+                                float)
+        self.known: list[set[int] | None] = []
+
+    def __getitem__(self, k: int) -> set[int] | None:
+        while len(self.known) <= k:
+            pose = self.poses[len(self.known)]
+            ik = solve_tcp_ik(pose_matrix(pose.position, tool_down_quaternion(pose.yaw)),
+                              self.q_ref)
+            if ik.q is not None:
+                self.q_ref = ik.q
+            self.known.append(None if ik.q is None else self.view.covered(ik.q, self.blocks))
+        return self.known[k]
+
+    def span(self, start: int, stop: int) -> list[set[int] | None]:
+        return [self[j] for j in range(start, min(stop, len(self.poses)))]
+
+
 def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
                 blocks: Mapping[int, Pose2D], need: set[int], wanted: set[int],
                 q_start: Sequence[float] | None = None) -> float | None:
@@ -110,11 +137,10 @@ def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],
     every sample, or, with nothing needed, every one of ``wanted`` at every sample. The arm's
     postures are chained from ``q_start`` (``arm_postures``)."""
     looked = {i: blocks[i] for i in need | wanted if i in blocks}
-    postures = arm_postures([pose for _, pose in samples], q_start)
-    covered = [None if q is None else view.covered(q, looked) for q in postures]
+    covered = CoveredAlong(view, [pose for _, pose in samples], looked, q_start)
     best: tuple[int, float] | None = None
     for k, (t, _) in enumerate(samples):
-        around = covered[max(k - 1, 0):k + 1 + LATE_SAMPLES]
+        around = covered.span(max(k - 1, 0), k + 1 + LATE_SAMPLES)
         now = covered[k]
         if now is None or any(c is None or c & need for c in around):
             continue
