@@ -117,9 +117,11 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
                  then: ToolPose, need: set[int], steps: list,
                  arm_joints: Sequence[float] | None = None) -> tuple[list, float, list] | None:
     """The quickest way to the next block through one of the WAYPOINTS_TRIED points that
-    show ``need`` with the least detour, each rounded off as widely as the rounded path still
-    shows ``need`` (WAYPOINT_BLENDS; the last: stopping on it); the way, when the arm passes
-    the point (script s) and the script's dry-run samples; None without such a point."""
+    show ``need`` with the least detour, rounded off there by one of WAYPOINT_BLENDS (the
+    last: stopping on it), that still shows ``need``; the way, when the arm passes the point
+    (script s) and the script's dry-run samples; None without such a way. The ways are tried
+    quickest first, so the first that shows ``need`` is the one: each try costs the arm's
+    postures and silhouettes along it, in the tick that ends an action."""
     ws = belief.scene.workspace if belief.scene is not None else None
     if ws is None:
         return None
@@ -127,7 +129,7 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
     area = (ws.x_min - cfg.look_offset, ws.x_max, ws.y_min, ws.y_max)
     grips = [step for step in steps if isinstance(step, Grip)]
     moves = [step for step in steps if not isinstance(step, Grip | Rise)]  # risen already
-    best = None
+    ways = []
     for waypoint in look_waypoints(view, up, then, belief.expected, need, area, WAYPOINTS_TRIED,
                                    arm_joints):
         for blend in WAYPOINT_BLENDS:
@@ -136,13 +138,12 @@ def via_waypoint(view: View, belief: Belief, cfg: ExecutorConfig, here: ToolPose
                         activity=Activity.LOOK), *grips,
                    Move(waypoint, cfg.travel_limits, "look: on the way", converge=False,
                         blend=blend, activity=Activity.LOOK), *moves]
-            samples = script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)
-            at = best_moment(view, samples, belief.expected, need, set(), arm_joints)
-            if at is not None:
-                if best is None or samples[-1][0] < best[2][-1][0]:
-                    best = (way, at, samples)
-                break
-    return best
+            ways.append((way, script_samples(way, here, cfg.in_safe_box, cfg.convergence_tol)))
+    for way, samples in sorted(ways, key=lambda w: w[1][-1][0]):  # stable: ties keep order
+        at = best_moment(view, samples, belief.expected, need, set(), arm_joints)
+        if at is not None:
+            return way, at, samples
+    return None
 
 
 def trigger_when_due(camera: Camera, view: View | None, inbox: Inbox, belief: Belief,
