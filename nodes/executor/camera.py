@@ -5,7 +5,7 @@ A look from the look pose or the park pose triggers once the arm is there. A loo
 (``observe.look_on_the_way``) triggers where the measured tool reaches the pose picked for the
 frame from the arm's predicted silhouette: but the measured arm runs a servo delay and more
 behind its setpoints and rounds corners, so the frame could catch a block to judge covered
-after all (one frame in ten before), and the arm then had to look again from the look pose.
+after all (about one look a run), and the arm then had to look again from the look pose.
 So the trigger also asks the arm's measured posture (``shows``: the joints the arm reported,
 and where they will be a frame's delay later): it waits, past the picked pose if need be,
 for a posture that leaves those blocks in view.
@@ -31,7 +31,6 @@ PASSING_M = 0.05
 #: and detection take 0.5-1.5 s in the cell; a reliable frame or detection whose lost
 #: fragment waits for the DDS writer's next heartbeat (3 s by default) takes longer.
 LATE_DETECTION_S = 2.0
-
 
 
 @dataclass
