@@ -25,11 +25,11 @@ from typing import Any
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 
+from nodes.common.executors import single_threaded
 from nodes.common.messages import canonical_type_name, import_message_type
 from nodes.common.runner import die_with_launcher, split_ros_args
 from nodes.common.transports import use_profile
@@ -203,10 +203,10 @@ def main(args: Sequence[str] | None = None) -> int:
             print(line, flush=True)
 
     recorder = Recorder(node, writer, opts.topics, opts.all, opts.exclude, opts.raw_images, log)
-    # rclpy's events executor takes a message for a fraction of what the wait-set executor
-    # costs: beside the default run, the recorder's CPU 6.3 -> 2.6 s and the run's wall time
-    # 24.2-25.6 -> 21.0-22.1 s (two cores: the recorder's wakes share them with the cell)
-    executor = EventsExecutor()
+    # the nodes' one-thread executor (rclpy's events executor): it takes a message for a
+    # fraction of what the wait-set executor costs; beside the default run, the recorder's
+    # CPU 6.3 -> 2.6 s and the run's wall time 24.2-25.6 -> 21.0-22.1 s (two cores)
+    executor = single_threaded()
     executor.add_node(node)
     print(f"densepack-record: recording to {output} "
           f"({'all topics' if opts.all else ', '.join(sorted(recorder.topics))}); Ctrl-C stops",
