@@ -161,11 +161,11 @@ def posture_check(view: View | None, inbox: Inbox, belief: Belief, camera: Camer
     """For a look on the way: whether the arm's measured posture leaves the blocks the frame
     must show in view (``visibility.shows``); None without a camera model, joint states or
     blocks to judge (the pose picked for the frame decides alone)."""
-    q = inbox.arm_joints
-    judged = {i: belief.expected[i] for i in camera.judge if i in belief.expected}
-    if view is None or q is None or not judged or not camera.on_the_way:
+    q, rates = inbox.arm_joints, inbox.arm_rates
+    if view is None or q is None or not camera.on_the_way or camera.trigger_near is None:
         return None
-    return lambda: shows(view, q, inbox.arm_rates, judged)
+    judged = {i: belief.expected[i] for i in camera.judge if i in belief.expected}
+    return (lambda: shows(view, q, rates, judged)) if judged else None
 
 
 def go_on(pending: Plan | None) -> Decision:

@@ -18,7 +18,7 @@ pose from the calibration file, the fingers taken wide open.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,20 +82,24 @@ def script_samples(steps: Sequence[Step], start: ToolPose, in_safe_box: Callable
     return samples
 
 
-def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = None
-                 ) -> list[np.ndarray | None]:
-    """The arm's joints at each tool pose (None where the IK finds none), each solved
+def chained_postures(poses: Iterable[ToolPose], q_start: Sequence[float] | None = None
+                     ) -> Iterator[np.ndarray | None]:
+    """The arm's joints at each tool pose in turn (None where the IK finds none), each solved
     nearest the one before, from ``q_start``: the joints the arm has now (the arm node solves
     each setpoint nearest the joints before it, so it keeps its branch; one that left the
     working branch on a far reach stays on the other), else the branch the arm works on."""
     q_ref = np.asarray(ur10e.WORKING_BRANCH_JOINTS if q_start is None else q_start, float)
-    out: list[np.ndarray | None] = []
     for pose in poses:
         ik = solve_tcp_ik(pose_matrix(pose.position, tool_down_quaternion(pose.yaw)), q_ref)
-        out.append(ik.q)
         if ik.q is not None:
             q_ref = ik.q
-    return out
+        yield ik.q
+
+
+def arm_postures(poses: Sequence[ToolPose], q_start: Sequence[float] | None = None
+                 ) -> list[np.ndarray | None]:
+    """``chained_postures`` of every pose at once."""
+    return list(chained_postures(poses, q_start))
 
 
 class CoveredAlong:
@@ -106,23 +110,18 @@ class CoveredAlong:
 
     def __init__(self, view: View, poses: Sequence[ToolPose], blocks: Mapping[int, Pose2D],
                  q_start: Sequence[float] | None = None) -> None:
-        self.view, self.poses, self.blocks = view, poses, blocks
-        self.q_ref = np.asarray(ur10e.WORKING_BRANCH_JOINTS if q_start is None else q_start,
-                                float)
+        self.view, self.count, self.blocks = view, len(poses), blocks
+        self.postures = chained_postures(poses, q_start)
         self.known: list[set[int] | None] = []
 
     def __getitem__(self, k: int) -> set[int] | None:
         while len(self.known) <= k:
-            pose = self.poses[len(self.known)]
-            ik = solve_tcp_ik(pose_matrix(pose.position, tool_down_quaternion(pose.yaw)),
-                              self.q_ref)
-            if ik.q is not None:
-                self.q_ref = ik.q
-            self.known.append(None if ik.q is None else self.view.covered(ik.q, self.blocks))
+            q = next(self.postures)
+            self.known.append(None if q is None else self.view.covered(q, self.blocks))
         return self.known[k]
 
     def span(self, start: int, stop: int) -> list[set[int] | None]:
-        return [self[j] for j in range(start, min(stop, len(self.poses)))]
+        return [self[j] for j in range(start, min(stop, self.count))]
 
 
 def best_moment(view: View, samples: Sequence[tuple[float, ToolPose]],

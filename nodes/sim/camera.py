@@ -188,13 +188,13 @@ def probe_backdrop(client, body: int, rgba: tuple[float, float, float, float],
                    camera: SimCamera) -> Backdrop | None:
     """``body`` as the ``camera``'s backdrop, when it is the only body and shows in one
     colour over the whole of a small image of the view; else None (render it as it is)."""
+    if client.getNumBodies() != 1:
+        return None
     k = BACKDROP_PROBE_SCALE
     view = canvas_camera(camera)
     small = replace(view, width=max(4, view.width // k), height=max(3, view.height // k),
                     fx=view.fx / k, fy=view.fy / k, cx=(view.cx + 0.5) / k - 0.5,
                     cy=(view.cy + 0.5) / k - 0.5)
-    if client.getNumBodies() != 1:
-        return None
     rgb, depth = render_pinhole(client, small)
     colours = np.unique(rgb.reshape(-1, 3), axis=0)
     if len(colours) != 1 or np.any(depth > FAR_DEPTH):
