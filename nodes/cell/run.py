@@ -18,7 +18,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from rclpy.executors import SingleThreadedExecutor
 from std_srvs.srv import Trigger
 
 from msgs_py import BlockSet, Scene
@@ -27,6 +26,7 @@ from nodes.cell.goal_sender import GoalSender
 from nodes.cell.launch import load_cell
 from nodes.cell.monitor import RunMonitor
 from nodes.cell.processes import ACTION_CELL_PARAMS, CellRun
+from nodes.common.executors import single_threaded
 from nodes.common.params import configs_from_parameters, read_params_file
 from nodes.common.paths import config_path
 from nodes.executor.config import ExecutorConfig
@@ -108,7 +108,7 @@ def run(
     """Send ``layout`` as a Rearrange goal and spin the monitor until the goal ends, a node
     crashes, ``watch`` cannot see a node expected on another computer (``unreachable``) or
     time runs out (the goal is then canceled: a safe stop)."""
-    executor = SingleThreadedExecutor(context=monitor.node.context)
+    executor = single_threaded(context=monitor.node.context)
     executor.add_node(monitor.node)
     sender = GoalSender(monitor, layout)
     starter = SimStarter(monitor, set(cell.launches) - {"sim"})

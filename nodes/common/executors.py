@@ -29,6 +29,7 @@ import os
 import time
 from collections.abc import Callable
 
+from rclpy.context import Context
 from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 
@@ -37,14 +38,15 @@ from rclpy.experimental import EventsExecutor
 EXECUTOR_ENV = "DENSEPACK_EXECUTOR"
 
 
-def single_threaded() -> Executor:
-    """The executor of a node whose callbacks all run on one thread (see the module)."""
+def single_threaded(context: Context | None = None) -> Executor:
+    """The executor of a node whose callbacks all run on one thread (see the module), in
+    ``context`` (rclpy's default context if None)."""
     choice = os.environ.get(EXECUTOR_ENV, "events")
     if choice == "single":
-        return SingleThreadedExecutor()
+        return SingleThreadedExecutor(context=context)
     if choice != "events":
         raise ValueError(f"{EXECUTOR_ENV}={choice!r}: expected 'events' or 'single'")
-    return EventsExecutor()
+    return EventsExecutor(context=context)
 
 
 #: The events executor's longest wait for a callback (s): how late a stop may be noticed.
