@@ -26,10 +26,11 @@ MAX_BUDGET_S = 3600.0
 MAX_SAMPLES = 2000
 #: The time parameters bounded by ``MAX_BUDGET_S``.
 SECONDS = ("budget_s", "frozen_budget_s", "improve_min_s", "improve_max_s",
-           "near_goal_budget_s", "exact_budget_s", "exact_pirs_s")
-#: Most blocks ``exact_max_blocks`` may name: the exact search's states grow with the pose
-#: set to the power of the block count (9 blocks do not close within minutes).
-MAX_EXACT_BLOCKS = 8
+           "near_goal_budget_s", "exact_budget_s", "exact_pirs_s", "exact_after_s")
+#: Most blocks ``exact_max_blocks`` and ``exact_after_max_blocks`` may name: the exact
+#: search's states grow with the pose set to the power of the block count (cramped 9-block
+#: scenes close in 2-40 s, docs/benchmarks.md; 12 is the reference command's limit).
+MAX_EXACT_BLOCKS = 12
 
 
 @dataclass(frozen=True)
@@ -144,6 +145,14 @@ class PlannerConfig:
     exact_pirs_s: float = param(
         5.0, "with the exact search's plan in hand (above the lower bound), the time pIRS and "
         "its restarts get to find a shorter one (off the pose set)", unit="s")
+    exact_after_max_blocks: int = param(
+        9, "scenes with more blocks than exact_max_blocks and at most this many: once pIRS "
+        "and its restarts have a plan above the lower bound, the exact search over the pose "
+        "set looks for a shorter one (nodes/planner/bounds/pose_search.py, pruned at the "
+        "plan's length) within exact_after_s; 0 switches it off")
+    exact_after_s: float = param(
+        12.0, "most time given to the exact search after pIRS (exact_after_max_blocks); the "
+        "plan in hand is kept if it does not close", unit="s")
     goal_tolerance_xy: float = param(
         cell.PLACED_TOLERANCE_XY,
         "a block this close to its goal counts as placed (no action)", unit="m")
@@ -189,9 +198,10 @@ class PlannerConfig:
             if getattr(self, name) > MAX_BUDGET_S:
                 raise ValueError(f"parameter '{name}' must be at most {MAX_BUDGET_S:g} s, got "
                                  f"{getattr(self, name)}")
-        if not 0 <= self.exact_max_blocks <= MAX_EXACT_BLOCKS:
-            raise ValueError(f"parameter 'exact_max_blocks' must be in [0, {MAX_EXACT_BLOCKS}], "
-                             f"got {self.exact_max_blocks}")
+        for name in ("exact_max_blocks", "exact_after_max_blocks"):
+            if not 0 <= getattr(self, name) <= MAX_EXACT_BLOCKS:
+                raise ValueError(f"parameter '{name}' must be in [0, {MAX_EXACT_BLOCKS}], got "
+                                 f"{getattr(self, name)}")
         if self.n_samples > MAX_SAMPLES:
             raise ValueError(f"parameter 'n_samples' must be at most {MAX_SAMPLES}, got "
                              f"{self.n_samples}")

@@ -18,10 +18,6 @@ taken off the queue is optimal for this pose set. The result is realised as msgs
 
 from __future__ import annotations
 
-import heapq
-import itertools
-import math
-import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -31,7 +27,10 @@ from msgs_py import Pose2D, Push
 from msgs_py.actions import Action
 from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.bounds.assembly import Assembly
-from nodes.planner.bounds.bound import INF, Relaxation
+from nodes.planner.bounds.bound import INF
+from nodes.planner.bounds.pose_search import QUARTER, PoseSearch
+from nodes.planner.bounds.pose_search import ExactLimit as ExactLimit  # re-exported
+from nodes.planner.bounds.pose_search import NoShorterPlan as NoShorterPlan  # re-exported
 from nodes.planner.geometry.context import at_pose
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_bools, words
 from nodes.planner.geometry.transfer import grasp_checks, pick_place_between, push_checks, push_line
@@ -41,11 +40,6 @@ LINE_STEPS = (0.5, 1.0, 2.0)
 BUFFER_STEP = 1.5
 #: Most buffer poses on that lattice (the moves are tested between every pair of poses).
 BUFFER_MAX = 400
-QUARTER = 0.5 * math.pi
-
-
-class ExactLimit(Exception):
-    """The search expanded ``max_expansions`` states without proving an optimum."""
 
 
 @dataclass(frozen=True)
@@ -139,122 +133,6 @@ def pose_set(ctx, starts: list[Pose2D], slots: list[Pose2D]) -> list[Pose2D]:
     return [q for q, ok in zip(out, stand, strict=True) if ok]
 
 
-class _Problem:
-    """A* over states (tuples of pose indices, one per block)."""
-
-    def __init__(self, poses: PoseSet, start: tuple[int, ...], slots: list[int],
-                 labeled: bool, assembly: Assembly) -> None:
-        self.ps = poses
-        self.start = start
-        self.slots = slots  # pose index of each slot (labeled: block k's goal)
-        self.labeled = labeled
-        self.asm = assembly
-        p = len(poses.poses)
-        slot_arr = poses.arr[slots]
-        self.on_line = np.zeros((p, len(slots)), dtype=bool)  # pose on a push line into slot
-        for k in range(len(slots)):
-            target = np.repeat(slot_arr[k:k + 1], p, axis=0)
-            self.on_line[:, k] = push_line(poses.arr, target, QUARTER)[0]
-        self.covers = poses.conflict[:, slots]  # (P, n): pose overlaps slot k
-        self.cover_bits = [sum(1 << int(c) for c in np.flatnonzero(row)) for row in self.covers]
-        self.on_any_slot = self.covers.any(-1).tolist()
-        self._h: dict[tuple[int, ...], float] = {}
-        self._relaxed: dict[tuple, float] = {}  # relaxation inputs -> its value
-
-    def key(self, state: tuple[int, ...]) -> tuple[int, ...]:
-        return state if self.labeled else tuple(sorted(state))
-
-    def done(self, state: tuple[int, ...]) -> bool:
-        if self.labeled:
-            return all(state[k] == self.slots[k] for k in range(len(self.slots)))
-        return set(self.slots) <= set(state)
-
-    def heuristic(self, state: tuple[int, ...]) -> float:
-        key = self.key(state)
-        if key not in self._h:
-            self._h[key] = self._bound(state)
-        return self._h[key]
-
-    def _bound(self, state: tuple[int, ...]) -> float:
-        """The relaxation's value for ``state``; states that give the relaxation the same
-        inputs share one solve."""
-        n = len(self.slots)
-        free_on_slots = 0
-        if self.labeled:  # blocks n.. have no goal: each on a slot must leave it
-            todo = sum(1 << k for k in range(n) if state[k] != self.slots[k])
-            exempt = tuple(bool(self.on_line[state[k], k]) for k in range(n))
-            clears = tuple(self.cover_bits[state[k]] & ~(1 << k) for k in range(n))
-            free_on_slots = sum(self.on_any_slot[u] for u in state[n:])
-        else:
-            filled = set(state)
-            todo = sum(1 << k for k in range(n) if self.slots[k] not in filled)
-            off = [u for u in state if u not in self.slots]
-            exempt = tuple(bool(self.on_line[off, k].any()) for k in range(n))
-            clears = (0,) * n
-        if not todo:
-            return float(free_on_slots)
-        inputs = (todo, exempt, clears)
-        if inputs not in self._relaxed:
-            relax = Relaxation(self.asm, todo, list(exempt), list(clears),
-                               moved_cost=2.0 if self.labeled else 1.0)
-            self._relaxed[inputs] = relax.best_start()[0]
-        return self._relaxed[inputs] + free_on_slots
-
-    def successors(self, state: tuple[int, ...]):
-        p = len(self.ps.poses)
-        for i, u in enumerate(state):
-            occupied = np.zeros(p, dtype=bool)
-            occupied[[v for j, v in enumerate(state) if j != i]] = True
-            for v, kind in self.ps.moves(u, occupied):
-                yield i, v, kind, (*state[:i], v, *state[i + 1:])
-
-    def solve(self, max_expansions: int, seconds: float | None = None,
-              stop: Callable[[], bool] | None = None) -> tuple[list[tuple[int, int, str]], int]:
-        deadline = None if seconds is None else time.monotonic() + seconds
-        tie = itertools.count()
-        h0 = self.heuristic(self.start)
-        if h0 == INF:
-            raise ExactLimit("the goal layout cannot be filled from this pose set")
-        heap = [(h0, 0, next(tie), self.start)]
-        best = {self.key(self.start): 0}
-        parent: dict[tuple[int, ...], tuple[tuple[int, ...], int, int, str]] = {}
-        expansions = 0
-        while heap:
-            _, neg_g, _, state = heapq.heappop(heap)
-            g = -neg_g
-            if best.get(self.key(state), INF) < g:
-                continue
-            if self.done(state):
-                return self._path(parent, state), expansions
-            expansions += 1
-            if expansions > max_expansions:
-                raise ExactLimit(f"no optimum proven within {max_expansions} expansions")
-            if expansions % 64 == 0 and (
-                    (deadline is not None and time.monotonic() > deadline)
-                    or (stop is not None and stop())):
-                raise ExactLimit(f"no optimum proven within {seconds:g} s"
-                                 if seconds is not None else "stopped")
-            for i, v, kind, nxt in self.successors(state):
-                k = self.key(nxt)
-                if best.get(k, INF) <= g + 1:
-                    continue
-                h = self.heuristic(nxt)
-                if h == INF:
-                    continue
-                best[k] = g + 1
-                parent[nxt] = (state, i, v, kind)
-                heapq.heappush(heap, (g + 1 + h, -(g + 1), next(tie), nxt))
-        raise ExactLimit("no plan over this pose set")
-
-    def _path(self, parent, state) -> list[tuple[int, int, str]]:
-        moves = []
-        while state in parent:
-            prev, i, v, kind = parent[state]
-            moves.append((i, v, kind))
-            state = prev
-        return moves[::-1]
-
-
 def _realize(ps: PoseSet, ids: list[int], start: Mapping[int, Pose2D],
              state: tuple[int, ...], moves: list[tuple[int, int, str]]) -> list[Action]:
     pose = {b: start[b] for b in ids}
@@ -334,12 +212,14 @@ def pose_problem(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
 def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
                assignment: Mapping[int, int] | None, max_expansions: int = 20000,
                max_blocks: int = MAX_BLOCKS, seconds: float | None = None,
-               stop: Callable[[], bool] | None = None) -> ExactResult:
+               stop: Callable[[], bool] | None = None, upper: float = INF) -> ExactResult:
     """The fewest actions (over ``pose_set``) moving the blocks ``start`` onto the slots;
-    ``assignment`` (block id -> slot index) for a labeled goal, None for an unlabeled one.
+    ``assignment`` (block id -> slot index) for a labeled goal, None for an unlabeled one;
+    with ``upper``, only a plan of fewer actions than that.
 
     Raises:
         ValueError: more than ``max_blocks`` blocks.
+        NoShorterPlan: none has fewer than ``upper`` actions over the pose set.
         ExactLimit: no optimum proven within ``max_expansions`` or ``seconds``, or ``stop()``
             became true (or no plan in the set).
     """
@@ -347,6 +227,6 @@ def exact_plan(ctx, start: Mapping[int, Pose2D], goal_slots: list[Pose2D],
         raise ValueError(f"the exact search takes at most {max_blocks} blocks, got "
                          f"{len(start)}")
     pp = pose_problem(ctx, start, goal_slots, assignment)
-    problem = _Problem(pp.poses, pp.state, pp.slots, pp.labeled, pp.assembly)
-    moves, expansions = problem.solve(max_expansions, seconds, stop)
+    search = PoseSearch(pp.poses, pp.state, pp.slots, pp.labeled, pp.assembly)
+    moves, expansions = search.solve(max_expansions, seconds, stop, upper)
     return ExactResult(pp.realize(moves), expansions, len(pp.poses.poses))

@@ -25,7 +25,7 @@ from msgs_py import MessageError, Plan, Pose2D, Scene
 from msgs_py.actions import Action
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import LowerBound, labeled_bound
-from nodes.planner.bounds.exact import ExactLimit, exact_plan
+from nodes.planner.bounds.exact import ExactLimit, NoShorterPlan, exact_plan
 from nodes.planner.bounds.frozen import FROZEN_WHY, LOCKED_WHY, frozen_off_goal, locked_blocks
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
@@ -143,7 +143,9 @@ def _improved(attempt: _Attempt, actions: list[Action], exact: list[Action] | No
     metrics.update(better.metrics(len(best)))
     metrics["first_solve_s"] = first_s
     name = EXACT_NAME if use_exact and not better.better else PLANNER_NAME
-    return finish_plan(scene, config, better.best, name, budget, attempt.bound.value,
+    shorter = attempt.exact_below(better.best, budget, metrics)
+    return finish_plan(scene, config, shorter or better.best,
+                       EXACT_NAME if shorter else name, budget, attempt.bound.value,
                        metrics, plan_id, pruned=True)
 
 
@@ -239,6 +241,38 @@ class _Attempt:
         metrics["exact_actions"] = float(len(found.actions))
         actions = necessary_actions(self.scene, self.params, found.actions)
         return actions if self.valid(actions) else None
+
+    def exact_below(self, best: list[Action], budget: Budget, metrics: dict[str, float]
+                    ) -> list[Action] | None:
+        """A plan shorter than ``best`` from the exact search over the pose set, pruned at
+        ``best``'s length, for scenes of more than ``exact_max_blocks`` and at most
+        ``exact_after_max_blocks`` blocks whose ``best`` is above the lower bound, within
+        ``exact_after_s``; validated and pruned. None where it does not apply, finds none
+        (``exact_after_proved``: none exists over the pose set) or does not close."""
+        cfg, goals = self.config, self.scene.goal_assignment()
+        if (not cfg.exact_max_blocks < len(self.start) <= cfg.exact_after_max_blocks
+                or self.scene.goal.yaw_exact or len(best) <= self.bound.value):
+            return None
+        part = budget.capped(cfg.exact_after_s)
+        ids = sorted(goals)
+        try:
+            found = exact_plan(self.ctx, self.start, [goals[b] for b in ids],
+                               {b: k for k, b in enumerate(ids)}, max_expansions=10**9,
+                               max_blocks=cfg.exact_after_max_blocks,
+                               seconds=max(part.remaining(), 0.0), stop=part.stopped,
+                               upper=len(best))
+        except NoShorterPlan:
+            metrics["exact_after_proved"] = 1.0
+            return None
+        except ExactLimit:
+            return None
+        finally:
+            metrics["exact_after_s"] = part.elapsed()
+        actions = necessary_actions(self.scene, self.params, found.actions)
+        if len(actions) >= len(best) or not self.valid(actions):
+            return None
+        metrics["exact_after_saved"] = float(len(best) - len(actions))
+        return actions
 
     def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
         """Restart ``k``: pruned actions, or None if it found no plan."""

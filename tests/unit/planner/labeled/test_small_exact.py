@@ -60,7 +60,8 @@ def test_pirs_runs_only_when_the_exact_plan_is_above_the_lower_bound(seed):
         assert out.plan.planner == EXACT_NAME
 
 
-@pytest.mark.parametrize("value", [-1, 9])
-def test_exact_max_blocks_is_bounded(value):
-    with pytest.raises(ValueError, match="exact_max_blocks"):
-        PlannerConfig(exact_max_blocks=value)
+@pytest.mark.parametrize("name", ["exact_max_blocks", "exact_after_max_blocks"])
+@pytest.mark.parametrize("value", [-1, 13])
+def test_exact_block_counts_are_bounded(name, value):
+    with pytest.raises(ValueError, match=name):
+        PlannerConfig(**{name: value})
