@@ -24,8 +24,8 @@ import numpy as np
 from msgs_py import MessageError, Plan, Pose2D, Scene
 from msgs_py.actions import Action
 from nodes.planner.bounds.assembly import Assembly
-from nodes.planner.bounds.bound import LowerBound, labeled_bound
-from nodes.planner.bounds.exact import ExactLimit, NoShorterPlan, exact_plan
+from nodes.planner.bounds.bound import INF, LowerBound, labeled_bound
+from nodes.planner.bounds.exact import ExactLimit, ExactResult, NoShorterPlan, exact_plan
 from nodes.planner.bounds.frozen import FROZEN_WHY, LOCKED_WHY, frozen_off_goal, locked_blocks
 from nodes.planner.budget import Budget
 from nodes.planner.config import PlannerConfig
@@ -221,17 +221,13 @@ class _Attempt:
         """The exact search's plan (``exact``: fewest actions over its pose set), validated
         and pruned, for scenes of at most ``exact_max_blocks`` blocks, within
         ``exact_budget_s``; None where it does not apply or does not close."""
-        cfg, goals = self.config, self.scene.goal_assignment()
+        cfg = self.config
         if (len(self.start) > cfg.exact_max_blocks or self.scene.goal.yaw_exact
                 or not self.bound.misplaced):
             return None
         part = budget.capped(cfg.exact_budget_s)
-        ids = sorted(goals)
         try:
-            found = exact_plan(self.ctx, self.start, [goals[b] for b in ids],
-                               {b: k for k, b in enumerate(ids)}, max_expansions=10**9,
-                               max_blocks=cfg.exact_max_blocks,
-                               seconds=max(part.remaining(), 0.0), stop=part.stopped)
+            found = self._pose_set_search(part, cfg.exact_max_blocks)
         except ExactLimit:
             metrics["exact_closed"] = 0.0
             metrics["exact_s"] = part.elapsed()
@@ -249,18 +245,13 @@ class _Attempt:
         ``exact_after_max_blocks`` blocks whose ``best`` is above the lower bound, within
         ``exact_after_s``; validated and pruned. None where it does not apply, finds none
         (``exact_after_proved``: none exists over the pose set) or does not close."""
-        cfg, goals = self.config, self.scene.goal_assignment()
+        cfg = self.config
         if (not cfg.exact_max_blocks < len(self.start) <= cfg.exact_after_max_blocks
                 or self.scene.goal.yaw_exact or len(best) <= self.bound.value):
             return None
         part = budget.capped(cfg.exact_after_s)
-        ids = sorted(goals)
         try:
-            found = exact_plan(self.ctx, self.start, [goals[b] for b in ids],
-                               {b: k for k, b in enumerate(ids)}, max_expansions=10**9,
-                               max_blocks=cfg.exact_after_max_blocks,
-                               seconds=max(part.remaining(), 0.0), stop=part.stopped,
-                               upper=len(best))
+            found = self._pose_set_search(part, cfg.exact_after_max_blocks, len(best))
         except NoShorterPlan:
             metrics["exact_after_proved"] = 1.0
             return None
@@ -273,6 +264,16 @@ class _Attempt:
             return None
         metrics["exact_after_saved"] = float(len(best) - len(actions))
         return actions
+
+    def _pose_set_search(self, part: Budget, max_blocks: int, upper: float = INF
+                         ) -> ExactResult:
+        """``exact_plan`` for this scene within ``part`` (raises as it does)."""
+        goals = self.scene.goal_assignment()
+        ids = sorted(goals)
+        return exact_plan(self.ctx, self.start, [goals[b] for b in ids],
+                          {b: k for k, b in enumerate(ids)}, max_expansions=10**9,
+                          max_blocks=max_blocks, seconds=max(part.remaining(), 0.0),
+                          stop=part.stopped, upper=upper)
 
     def restart(self, k: int, jitter: float, budget: Budget) -> list[Action] | None:
         """Restart ``k``: pruned actions, or None if it found no plan."""
