@@ -137,20 +137,6 @@ class PoseSearch:
         exempt = tuple(bool(self.on_line[off, k].any()) for k in range(n))
         return (todo, exempt, (0,) * n), 0
 
-    def moved(self, parent: Inputs, extra: int, state: tuple[int, ...], i: int, v: int
-              ) -> tuple[Inputs, int]:
-        """``inputs`` of ``state``, the parent's with block ``i`` moved to pose ``v``."""
-        n = len(self.slots)
-        if not self.labeled:
-            return self.inputs(state)
-        if i >= n:  # a block without a goal: only whether it stands on a slot changes
-            return parent, sum(self.on_any_slot[u] for u in state[n:])
-        todo, exempt, clears = parent
-        todo = todo | (1 << i) if v != self.slots[i] else todo & ~(1 << i)
-        exempt = (*exempt[:i], self.on_line_list[v][i], *exempt[i + 1:])
-        clears = (*clears[:i], self.cover_bits[v] & ~(1 << i), *clears[i + 1:])
-        return (todo, exempt, clears), extra
-
     def value(self, inputs: Inputs, extra: int) -> float:
         """The heuristic for a state with these inputs (solved already: ``solve_all``)."""
         if not inputs[0]:
@@ -292,12 +278,11 @@ class PoseSearch:
     def _expand_each(self, state, g: int, front: _Frontier) -> float:
         """Every child of ``state`` queued, one by one (unlabeled goals: a state's inputs
         are its set's); nothing left for later."""
-        inputs, extra = front.known[state]
         children = []
         for i, v, kind, nxt in self.successors(state):
             if front.best.get(self.key(nxt), INF) <= g + 1:
                 continue
-            children.append((i, v, kind, nxt, *self.moved(inputs, extra, nxt, i, v)))
+            children.append((i, v, kind, nxt, *self.inputs(nxt)))
         self.solve_all([c[4] for c in children])
         for i, v, kind, nxt, child_inputs, child_extra in children:
             h = self.value(child_inputs, child_extra)
