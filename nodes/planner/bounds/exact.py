@@ -85,21 +85,33 @@ class PoseSet:
                 out.setdefault(int(i[k]), []).append((int(j[k]), blocked))
         return out
 
-    def moves(self, u: int, occupied: np.ndarray) -> list[tuple[int, str]]:
-        """Poses a block at u reaches in one action while ``occupied`` (P,) hold the others,
-        with the kind of action."""
-        free = ~(self.conflict & occupied).any(-1) & self.stand_ok
-        out: list[tuple[int, str]] = []
-        at_u = self.fingers_ok[u] & ~(self.fingers[u] & occupied).any(-1)
-        if at_u.any():
-            at_v = (self.fingers_ok & ~(self.fingers & occupied).any(-1)).any(-1)
-            for v in np.flatnonzero(free & at_v & self.carry_ok[u]):
-                if v != u:
-                    out.append((int(v), "pick_place"))
-        for v, blocked in self.pushes.get(u, ()):
-            if free[v] and not (blocked & occupied).any():
-                out.append((v, "push"))
-        return out
+    def moves(self, state: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every one-action move as flat arrays: block index, pose, whether a push (a pose
+        reached both ways is a pick-and-place). The other blocks' conflicts with each pose
+        are counted once for the state, and each block's own taken off again."""
+        ps = self
+        here = np.array(state)
+        conflicts = ps.conflict[:, here]  # (P, m): pose overlaps block i
+        fingers = ps.fingers[:, :, here]  # (P, 2, m): fingers there hit block i
+        free = (conflicts.sum(axis=1)[:, None] == conflicts) & ps.stand_ok[:, None]
+        grips = ps.fingers_ok[:, :, None] & (fingers.sum(axis=-1)[:, :, None] == fingers)
+        lift = grips[here, :, np.arange(len(here))].any(-1)  # (m,): a grasp where it stands
+        reach = free & grips.any(axis=1) & ps.carry_ok[here].T & lift[None, :]
+        reach[here, np.arange(len(here))] = False
+        v, i = np.nonzero(reach)
+        occupied = np.zeros(len(ps.poses), dtype=bool)
+        occupied[here] = True
+        pushes_i, pushes_v = [], []
+        for k, u in enumerate(state):
+            occupied[u] = False
+            for w, blocked in ps.pushes.get(u, ()):
+                if free[w, k] and not reach[w, k] and not occupied[blocked].any():
+                    pushes_i.append(k)
+                    pushes_v.append(w)
+            occupied[u] = True
+        blocks = np.concatenate([i, np.array(pushes_i, dtype=np.int64)])
+        poses = np.concatenate([v, np.array(pushes_v, dtype=np.int64)])
+        return blocks, poses, np.arange(len(blocks)) >= len(i)
 
     def axes(self, u: int, v: int, occupied: np.ndarray) -> tuple[int, int]:
         """Free grasp axes (at u, at v) for a pick-and-place u -> v."""

@@ -6,11 +6,14 @@ certified slot relaxation (``bound.Relaxation``) for the inputs the state gives 
 slots are still to fill, which blocks stand on a push line into their slot, which slots each
 block stands on). Most of a search's time went there: a 9-block state has about 120
 successors, each of whose heuristic was worked out on its own (the inputs in Python, the
-relaxation's dynamic programme over the 2^n filled sets per distinct input). Now a child's
-inputs are its parent's with one block's entry changed, and the distinct inputs an expansion
-meets for the first time are solved together, one array programme with a batch axis
-(``RelaxedLevels.values``). Likewise the moves: the other blocks' conflicts are counted once per
-expansion (``PoseSet.occupancy``), not once per block.
+relaxation's dynamic programme over the 2^n filled sets per distinct input), most of them
+never expanded. Now a state queues only the children whose cost bound equals its own and
+goes back on the queue at the next bound among the rest (partial expansion); a child's
+inputs are its parent's with one block's entry changed, which depends only on the class of
+the pose it moves to, and the distinct inputs an expansion meets for the first time are
+solved together, one array programme with a batch axis (``RelaxedLevels.values``). Likewise
+the moves (``PoseSet.moves``): the other blocks' conflicts are counted once per expansion,
+not once per block.
 
 ``solve(upper=U)`` looks only for plans of fewer than ``U`` actions (a plan of ``U`` is in
 hand): a child whose cost so far plus heuristic reaches ``U`` is dropped, and a queue that
@@ -97,7 +100,6 @@ class PoseSearch:
         self.start = start
         self.slots = slots  # pose index of each slot (labeled: block k's goal)
         self.labeled = labeled
-        self.asm = assembly
         self.moved_cost = 2.0 if labeled else 1.0
         p, n = len(poses.poses), len(slots)
         slot_arr = poses.arr[slots]
@@ -107,9 +109,7 @@ class PoseSearch:
             self.on_line[:, k] = push_line(poses.arr, target, QUARTER)[0]
         covers = poses.conflict[:, slots]  # (P, n): pose overlaps slot k
         self.cover_bits = [sum(1 << int(c) for c in np.flatnonzero(row)) for row in covers]
-        self.on_any_slot = covers.any(-1).tolist()
-        self.on_line_list = self.on_line.tolist()
-        self.on_any = np.array(self.on_any_slot, dtype=int)
+        self.on_any = covers.any(-1).astype(int)  # pose overlaps some slot
         # per slot k's block, per pose: on its slot (bit 0), on a push line into it (bit 1),
         # the other slots it overlaps (bits 2..): all a child's inputs need of its pose
         index = np.arange(p)
@@ -128,9 +128,9 @@ class PoseSearch:
         n = len(self.slots)
         if self.labeled:
             todo = sum(1 << k for k in range(n) if state[k] != self.slots[k])
-            exempt = tuple(self.on_line_list[state[k]][k] for k in range(n))
+            exempt = tuple(bool(self.on_line[state[k], k]) for k in range(n))
             clears = tuple(self.cover_bits[state[k]] & ~(1 << k) for k in range(n))
-            return (todo, exempt, clears), sum(self.on_any_slot[u] for u in state[n:])
+            return (todo, exempt, clears), int(self.on_any[list(state[n:])].sum())
         filled = set(state)
         todo = sum(1 << k for k in range(n) if self.slots[k] not in filled)
         off = [u for u in state if u not in self.slots]
@@ -150,11 +150,6 @@ class PoseSearch:
             values = self.levels.values(new, self.moved_cost)
             self._relaxed.update(zip(new, values.tolist(), strict=True))
 
-    def heuristic(self, state: tuple[int, ...]) -> float:
-        inputs, extra = self.inputs(state)
-        self.solve_all([inputs])
-        return self.value(inputs, extra)
-
     # --- the search --------------------------------------------------------------------
     def key(self, state: tuple[int, ...]) -> tuple[int, ...]:
         return state if self.labeled else tuple(sorted(state))
@@ -164,37 +159,9 @@ class PoseSearch:
             return all(state[k] == self.slots[k] for k in range(len(self.slots)))
         return set(self.slots) <= set(state)
 
-    def moves(self, state: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Every one-action move as flat arrays: block index, pose, whether a push (a pose
-        reached both ways is a pick-and-place). The other blocks' conflicts with each pose
-        are counted once for the state, and each block's own taken off again."""
-        ps = self.ps
-        here = np.array(state)
-        conflicts = ps.conflict[:, here]  # (P, m): pose overlaps block i
-        fingers = ps.fingers[:, :, here]  # (P, 2, m): fingers there hit block i
-        free = (conflicts.sum(axis=1)[:, None] == conflicts) & ps.stand_ok[:, None]
-        grips = ps.fingers_ok[:, :, None] & (fingers.sum(axis=-1)[:, :, None] == fingers)
-        lift = grips[here, :, np.arange(len(here))].any(-1)  # (m,): a grasp where it stands
-        reach = free & grips.any(axis=1) & ps.carry_ok[here].T & lift[None, :]
-        reach[here, np.arange(len(here))] = False
-        v, i = np.nonzero(reach)
-        occupied = np.zeros(len(ps.poses), dtype=bool)
-        occupied[here] = True
-        pushes_i, pushes_v = [], []
-        for k, u in enumerate(state):
-            occupied[u] = False
-            for w, blocked in ps.pushes.get(u, ()):
-                if free[w, k] and not reach[w, k] and not occupied[blocked].any():
-                    pushes_i.append(k)
-                    pushes_v.append(w)
-            occupied[u] = True
-        blocks = np.concatenate([i, np.array(pushes_i, dtype=np.int64)])
-        poses = np.concatenate([v, np.array(pushes_v, dtype=np.int64)])
-        return blocks, poses, np.arange(len(blocks)) >= len(i)
-
     def successors(self, state: tuple[int, ...]):
         """(block index, pose, kind, next state) for every one-action move."""
-        blocks, poses, pushed = self.moves(state)
+        blocks, poses, pushed = self.ps.moves(state)
         for i, v, push in zip(blocks.tolist(), poses.tolist(), pushed.tolist(), strict=True):
             yield i, v, "push" if push else "pick_place", (*state[:i], v, *state[i + 1:])
 
@@ -251,7 +218,7 @@ class PoseSearch:
         as one batch for the state)."""
         inputs, extra = front.known[state]
         n = len(self.slots)
-        blocks, poses, pushed = self.moves(state)
+        blocks, poses, pushed = self.ps.moves(state)
         if not len(blocks):
             return INF
         goal_block = blocks < n
