@@ -118,7 +118,7 @@ class Assembly:
         (some ``set_down`` mask misses S) and whether the shortest push's fingertips find a
         free lane (some ``push_tail`` mask misses S), as (n, 2^n) arrays; and the filled sets
         by how many slots they hold. Built once, in bulk, so that the relaxation's shortest
-        path over subsets (``bound.Relaxation.to_go``) is a few array operations per level."""
+        path over subsets (``bound.completion_costs``) is a few array operations per level."""
         n = len(self.ids)
         subsets = np.arange(1 << n, dtype=np.int64)
 
@@ -131,6 +131,23 @@ class Assembly:
         tail = np.array([table(m) for m in self.push_tail]).reshape(n, -1)
         counts = np.bitwise_count(subsets)
         return place, tail, [subsets[counts == k] for k in range(n + 1)]
+
+    @cached_property
+    def level_tables(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """``slot_tables`` by level, from n-1 filled slots down to none, as the relaxation's
+        shortest path walks them (``bound.completion_costs``): the filled sets S (L,); S with
+        each slot c added (n, L); the cost of c arriving there (0 where it may: not filled,
+        and placeable or its push lane free, else inf); whether c takes no pick-and-place."""
+        n = len(self.ids)
+        place, tail, levels = self.slot_tables
+        bits = (1 << np.arange(n, dtype=np.int64))[:, None]
+        out = []
+        for k in range(n - 1, -1, -1):
+            filled = levels[k]
+            placeable, lane = place[:, filled], tail[:, filled]
+            ok = ((filled[None, :] & bits) == 0) & (placeable | lane)
+            out.append((filled, filled[None, :] | bits, np.where(ok, 0.0, np.inf), ~placeable))
+        return out
 
     def mask(self, blocks) -> int:
         out = 0

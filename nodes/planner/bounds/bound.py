@@ -36,7 +36,7 @@ from the planner's own footprints; the bound is certified for that model.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -111,25 +111,10 @@ class Relaxation:
     @cached_property
     def to_go(self) -> list[float]:
         """Least cost from each filled set (bit mask) to the full layout: ``cost`` summed
-        along the best completion. Solved level by level (sets holding n-1 slots, then n-2,
-        ...), each level in a few array operations over the assembly's per-slot tables (the
-        same values as ``cost``; the exact search solves this once per distinct input)."""
-        n = self.n
-        place, tail, levels = self.asm.slot_tables
-        g = np.full(1 << n, INF)
-        g[-1] = 0.0
-        bits = (1 << np.arange(n, dtype=np.int64))[:, None]
-        todo = np.array([bool(self.todo >> c & 1) for c in range(n)])[:, None]
-        exempt = np.array(self.exempt, dtype=bool)[:, None]
-        clears = np.array(self.clears, dtype=np.int64)[:, None]
-        for k in range(n - 1, -1, -1):
-            filled = levels[k][None, :]
-            placeable, lane = place[:, levels[k]], tail[:, levels[k]]
-            ok = ((filled & bits) == 0) & (placeable | lane)
-            extra = (~placeable & ~exempt) | ((clears & filled) != 0)
-            step = np.where(todo, 1.0 + extra, self.moved_cost)
-            g[levels[k]] = np.where(ok, step + g[filled | bits], INF).min(axis=0)
-        return g.tolist()
+        along the best completion (``completion_costs``; the exact search solves this once
+        per distinct input)."""
+        return completion_costs(self.asm, [(self.todo, self.exempt, self.clears)],
+                                self.moved_cost)[0].tolist()
 
     def best_start(self) -> tuple[float, int]:
         """(cost, filled set) of the best start: any subset of the slots filled at the start
@@ -176,6 +161,41 @@ class Relaxation:
                 if x != y:
                     best = min(best, last + self.extra(x, full & ~(1 << x) & ~(1 << y)))
         return best
+
+
+#: A relaxation's inputs: (slots to fill as a bit mask, per slot whether its block may arrive
+#: by one push, per slot the slots its block stands on).
+Inputs = tuple[int, Sequence[bool], Sequence[int]]
+
+
+def completion_costs(asm: Assembly, inputs: Sequence[Inputs], moved_cost: float
+                     ) -> np.ndarray:
+    """Per input, the least cost from each filled set to the full layout (count, 2^n): the
+    same values as ``Relaxation.cost`` summed along the best completion, solved level by level
+    (sets of n-1 slots, then n-2, ...) in a few array operations over ``Assembly.level_tables``,
+    for all the inputs at once."""
+    n, count = len(asm.ids), len(inputs)
+    todo = np.array([[t >> c & 1 for c in range(n)] for t, _, _ in inputs],
+                    dtype=bool).reshape(count, n, 1)
+    exempt = np.array([e for _, e, _ in inputs], dtype=bool).reshape(count, n, 1)
+    clears = np.array([c for _, _, c in inputs], dtype=np.int64).reshape(count, n, 1)
+    g = np.full((count, 1 << n), INF)
+    g[:, -1] = 0.0
+    for filled, nxt, forbid, unplaceable in asm.level_tables:
+        extra = (unplaceable & ~exempt) | ((clears & filled) != 0)
+        step = np.where(todo, 1.0 + extra, moved_cost)
+        g[:, filled] = (step + forbid + g[:, nxt]).min(axis=1)
+    return g
+
+
+def best_starts(asm: Assembly, inputs: Sequence[Inputs], moved_cost: float) -> np.ndarray:
+    """``Relaxation.best_start``'s cost for each of ``inputs`` (no walled-in blocks): the
+    least completion cost over the filled sets it may keep, for all the inputs at once."""
+    n = len(asm.ids)
+    g = completion_costs(asm, inputs, moved_cost)
+    kept_all = np.array([((1 << n) - 1) & ~t for t, _, _ in inputs], dtype=np.int64)
+    may_keep = (np.arange(1 << n, dtype=np.int64)[None, :] & ~kept_all[:, None]) == 0
+    return np.where(may_keep, g, INF).min(axis=1)
 
 
 def _overlaps(ctx, poses: list[Pose2D], slots: list[Pose2D]) -> list[int]:

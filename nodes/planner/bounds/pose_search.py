@@ -11,7 +11,7 @@ never expanded. Now a state queues only the children whose cost bound equals its
 goes back on the queue at the next bound among the rest (partial expansion); a child's
 inputs are its parent's with one block's entry changed, which depends only on the class of
 the pose it moves to, and the distinct inputs an expansion meets for the first time are
-solved together, one array programme with a batch axis (``RelaxedLevels.values``). Likewise
+solved together, one array programme with a batch axis (``bound.best_starts``). Likewise
 the moves (``PoseSet.moves``): the other blocks' conflicts are counted once per expansion,
 not once per block.
 
@@ -30,7 +30,7 @@ from collections.abc import Callable
 import numpy as np
 
 from nodes.planner.bounds.assembly import Assembly
-from nodes.planner.bounds.bound import INF
+from nodes.planner.bounds.bound import INF, Inputs, best_starts
 from nodes.planner.geometry.transfer import push_line
 
 #: Yaw period of a push line (a cube looks the same turned by a quarter turn).
@@ -38,9 +38,6 @@ QUARTER = 0.5 * np.pi
 #: How often (expansions) the clock and the stop flag are read.
 CHECK_EVERY = 32
 
-#: A relaxation's inputs: (slots to fill as a bit mask, per slot whether its block may arrive
-#: by one push, per slot the slots its block stands on).
-Inputs = tuple[int, tuple[bool, ...], tuple[int, ...]]
 
 
 class ExactLimit(Exception):
@@ -50,45 +47,6 @@ class ExactLimit(Exception):
 
 class NoShorterPlan(ExactLimit):
     """No plan over the pose set has fewer actions than the ``upper`` bound given."""
-
-
-class RelaxedLevels:
-    """The relaxation's per-level tables for one goal layout, built once: per level (filled
-    sets of k slots), the sets, the sets one slot more, the cost of an arrival the layout
-    forbids (INF, else 0) and whether the slot takes no pick-and-place there."""
-
-    def __init__(self, asm: Assembly) -> None:
-        n = self.n = len(asm.ids)
-        place, tail, levels = asm.slot_tables
-        bits = (1 << np.arange(n, dtype=np.int64))[:, None]
-        self.levels = []
-        for k in range(n - 1, -1, -1):
-            filled = levels[k]
-            placeable, lane = place[:, filled], tail[:, filled]
-            ok = ((filled[None, :] & bits) == 0) & (placeable | lane)
-            self.levels.append((filled, filled[None, :] | bits, np.where(ok, 0.0, INF),
-                                ~placeable))
-        self.subsets = np.arange(1 << n, dtype=np.int64)
-
-    def values(self, inputs: list[Inputs], moved_cost: float) -> np.ndarray:
-        """The relaxation's value (``Relaxation.best_start`` without walled-in blocks) for
-        each of ``inputs``: its least completion cost over the filled sets it may keep,
-        solved level by level for all the inputs at once."""
-        n, count = self.n, len(inputs)
-        todo = np.array([[t >> c & 1 for c in range(n)] for t, _, _ in inputs],
-                        dtype=float).reshape(count, n, 1)
-        exempt = np.array([e for _, e, _ in inputs], dtype=bool).reshape(count, n, 1)
-        clears = np.array([c for _, _, c in inputs], dtype=np.int64).reshape(count, n, 1)
-        g = np.full((count, 1 << n), INF)
-        g[:, -1] = 0.0
-        for filled, nxt, forbid, unplaceable in self.levels:
-            extra = (unplaceable & ~exempt) | ((clears & filled) != 0)
-            step = moved_cost + todo * (1.0 - moved_cost + extra)  # todo: 1 (+1), else moved
-            g[:, filled] = (step + forbid + g[:, nxt]).min(axis=1)
-        full = (1 << n) - 1
-        kept_all = np.array([full & ~t for t, _, _ in inputs], dtype=np.int64)
-        may_keep = (self.subsets[None, :] & ~kept_all[:, None]) == 0
-        return np.where(may_keep, g, INF).min(axis=1)
 
 
 class PoseSearch:
@@ -119,7 +77,7 @@ class PoseSearch:
         self.code_span = (1 << (n + 2)) + 1  # codes lie below code_span - 1: a block's
         # without a goal (only whether it stands on a slot counts)
         self._relaxed: dict[Inputs, float] = {}
-        self.levels = RelaxedLevels(assembly)
+        self.asm = assembly
 
     # --- the heuristic ----------------------------------------------------------------
     def inputs(self, state: tuple[int, ...]) -> tuple[Inputs, int]:
@@ -147,7 +105,7 @@ class PoseSearch:
         """Solve the relaxation for each of ``inputs`` not solved yet, in one batch."""
         new = list(dict.fromkeys(x for x in inputs if x[0] and x not in self._relaxed))
         if new:
-            values = self.levels.values(new, self.moved_cost)
+            values = best_starts(self.asm, new, self.moved_cost)
             self._relaxed.update(zip(new, values.tolist(), strict=True))
 
     # --- the search --------------------------------------------------------------------

@@ -11,9 +11,9 @@ import pytest
 
 from nodes.bench.instances import instance
 from nodes.planner.bounds.assembly import Assembly
-from nodes.planner.bounds.bound import Relaxation
+from nodes.planner.bounds.bound import Relaxation, best_starts
 from nodes.planner.bounds.exact import NoShorterPlan, pose_problem
-from nodes.planner.bounds.pose_search import PoseSearch, RelaxedLevels
+from nodes.planner.bounds.pose_search import PoseSearch
 from nodes.planner.config import PlannerConfig
 from nodes.planner.geometry.context import PlanContext
 from nodes.planner.labeled.plan_labeled import EXACT_NAME, plan_scene
@@ -76,7 +76,7 @@ def test_the_batched_relaxation_gives_each_inputs_own_value():
         clears = tuple(int(x) & ~(1 << k) if rng.random() < 0.2 else 0
                        for k, x in enumerate(rng.integers(0, 1 << 6, 6)))
         inputs.append((todo, exempt, clears))
-    batched = RelaxedLevels(asm).values(inputs, 2.0)
+    batched = best_starts(asm, inputs, 2.0)
     one_by_one = [Relaxation(asm, t, list(e), list(c), moved_cost=2.0).best_start()[0]
                   for t, e, c in inputs]
     assert batched.tolist() == one_by_one
