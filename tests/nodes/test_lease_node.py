@@ -2,7 +2,8 @@
 stand-in, leases taken through /arm/lease and /gripper/lease. A stray publisher on the public
 topic is refused and named on the status, a second holder is refused with the holder's name,
 the same holder asking again gets a new private topic, a holder that leaves the graph loses
-the lease, and the executor's side (LeaseClient) takes it again after an arm node restart."""
+the lease, the executor's side (LeaseClient) takes it again after an arm node restart, and its
+gripper side sends a command refused before the lease was taken again once it is."""
 
 from __future__ import annotations
 
@@ -201,3 +202,31 @@ def test_a_respawned_holder_sees_its_predecessors_lease_as_inherited_until_it_ta
     control.update(True)
     assert not control.inherited("/test_executor")
     assert control.takes_my_commands("/test_executor")
+
+
+def test_the_fingers_command_refused_before_the_lease_goes_again_once_it_is_taken(ros, cell):
+    """The executor's gripper side resends its last command at the switch to a new lease: an
+    open sent while the fingers answered only another holder (a gripper node that restarted
+    with its lease book still naming the old one) is not lost."""
+    other = ros.add(Node("other_executor", context=ros.context))  # holds the lease first
+    taken = ask(ros, "gripper", "/other_executor")
+    assert taken.granted
+    publisher(ros, other, taken.command_topic, Float64)  # the lease is in force from here
+    holder = ros.add(Node("test_executor", context=ros.context))
+    control = LeaseClient(holder, "gripper", "command", Float64, retry_s=0.2,
+                          resend_s=math.inf)
+    ros.wait_for_subscribers(control.public)
+    control.publish(Float64(data=0.06))  # on the public topic, closed by the other's lease
+    refused = gripper_status(ros, lambda m: m.refused_commands >= 1)
+    assert "/test_executor" in refused.refused_commanders
+    assert abs(refused.requested_gap - 0.06) > 1e-3
+    ask(ros, "gripper", "/other_executor", release=True, token=taken.token)
+
+    def take() -> bool:
+        control.update(True)
+        return control.keeper.connected
+
+    wait_until(take, "the gripper lease taken")
+    assert control.resends == 1
+    status = gripper_status(ros, lambda m: abs(m.requested_gap - 0.06) < 1e-6)
+    assert status.lease_holder == "/test_executor"
