@@ -27,24 +27,29 @@ SUBPROTOCOL = "foxglove.sdk.v1"  # foxglove-sdk 0.30's name for the ws-protocol
 MESSAGE_DATA = 0x01  # server -> client binary opcode
 
 
-def start_view() -> tuple[subprocess.Popen, int]:
+def start_view() -> tuple[subprocess.Popen, int, list[str], threading.Thread]:
+    """The view on a free port; one thread reads its output to the end (the port line, then
+    everything for the failure message), so nothing else may read it."""
     proc = subprocess.Popen([*tool("view"), "--port", "0"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     port: list[int] = []
+    lines: list[str] = []
     ready = threading.Event()
 
     def read() -> None:
         for line in iter(proc.stdout.readline, ""):
+            lines.append(line)
             found = re.search(r"serving ws://[\d.]+:(\d+)", line)
             if found:
                 port.append(int(found.group(1)))
                 ready.set()
 
-    threading.Thread(target=read, daemon=True).start()
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
     if not ready.wait(60):
         proc.kill()
         raise AssertionError("densepack-view did not start serving in 60 s")
-    return proc, port[0]
+    return proc, port[0], lines, reader
 
 
 def frame(index: int) -> CompressedImage:
@@ -62,7 +67,7 @@ def test_a_websocket_client_gets_the_camera_and_the_scene(ros):
     detected = ros.probe.create_publisher(BlockPoseArray, "/blocks/detected", RELIABLE)
     blocks = BlockPoseArray(block_size=0.0508, blocks=[BlockPose(id=4)])
     blocks.header.frame_id = "world"
-    view, port = start_view()
+    view, port, lines, reader = start_view()
     sent: list[CompressedImage] = []
     stop = threading.Event()
 
@@ -108,8 +113,10 @@ def test_a_websocket_client_gets_the_camera_and_the_scene(ros):
         stop.set()
         pump.join(timeout=2)
         view.send_signal(signal.SIGINT)
-        out, _ = view.communicate(timeout=30)
-    assert view.returncode == 0, out
+        view.wait(timeout=30)
+        reader.join(timeout=10)
+        view.stdout.close()
+    assert view.returncode == 0, "".join(lines)
     cam = channels["/camera/image_raw/compressed"]
     assert (cam["encoding"], cam["schemaName"], cam["schemaEncoding"]) == (
         "cdr", "sensor_msgs/msg/CompressedImage", "ros2msg")
