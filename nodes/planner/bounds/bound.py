@@ -49,7 +49,7 @@ from nodes.planner.bounds.bound_starts import StartSearch, start_ways
 from nodes.planner.bounds.feedback import feedback_vertex_set
 from nodes.planner.geometry.context import at_pose
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_int, words
-from nodes.planner.geometry.transfer import grasp_checks, push_checks, push_line
+from nodes.planner.geometry.transfer import FOOTPRINT_PERIOD, grasp_checks, push_checks, push_line
 
 #: Largest slot count for which the planner solves the exact relaxation (2^n subsets, about
 #: 0.01 s at 12 slots) and the start-aware one (pairs of subsets).
@@ -250,7 +250,7 @@ def labeled_bound(ctx, start: Mapping[int, Pose2D], goals: Mapping[int, Pose2D],
     asm = assembly or Assembly(ctx, dict(goals))
     todo = sum(1 << k for k, b in enumerate(ids) if not at_pose(
         start[b], goals[b], cfg.goal_tolerance_xy, cfg.goal_tolerance_yaw, yaw_exact))
-    period = 2.0 * math.pi if yaw_exact else 0.5 * math.pi
+    period = 2.0 * math.pi if yaw_exact else FOOTPRINT_PERIOD
     exempt = [bool(_on_push_line([start[b]], goals[b], period)[0]) for b in ids]
     slots = [goals[b] for b in ids]
     clears = [m & ~(1 << k) for k, m in enumerate(_overlaps(ctx, [start[b] for b in ids],
@@ -330,7 +330,7 @@ def unlabeled_bound(ctx, blocks: list[Pose2D], slots: list[Pose2D], filled: list
     todo = sum(1 << k for k in range(n) if not filled[k])
     off_slot = [p for p in blocks if not any(
         math.hypot(p.x - q.x, p.y - q.y) <= ctx.config.goal_tolerance_xy for q in slots)]
-    exempt = [bool(_on_push_line(off_slot, slots[k], 0.5 * math.pi).any()) for k in range(n)]
+    exempt = [bool(_on_push_line(off_slot, slots[k], FOOTPRINT_PERIOD).any()) for k in range(n)]
     must_move = sum(1 for m in _overlaps(ctx, off_slot, slots) if m)
     # a slot's block moved off it counts 1: its leaving may be another slot's arrival
     relax = Relaxation(asm, todo, exempt, [0] * n, moved_cost=1.0)

@@ -28,12 +28,18 @@ from msgs_py.actions import Action
 from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import INF
-from nodes.planner.bounds.pose_search import QUARTER, PoseSearch
 from nodes.planner.bounds.pose_search import ExactLimit as ExactLimit  # re-exported
 from nodes.planner.bounds.pose_search import NoShorterPlan as NoShorterPlan  # re-exported
+from nodes.planner.bounds.pose_search import PoseSearch
 from nodes.planner.geometry.context import at_pose
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_bools, words
-from nodes.planner.geometry.transfer import grasp_checks, pick_place_between, push_checks, push_line
+from nodes.planner.geometry.transfer import (
+    FOOTPRINT_PERIOD,
+    grasp_checks,
+    pick_place_between,
+    push_checks,
+    push_line,
+)
 
 MAX_BLOCKS = 5
 LINE_STEPS = (0.5, 1.0, 2.0)
@@ -72,7 +78,7 @@ class PoseSet:
     def _pushes(self, obstacles: Obstacles) -> dict[int, list[tuple[int, np.ndarray]]]:
         p = len(self.poses)
         i, j = np.nonzero(~np.eye(p, dtype=bool))
-        on, d, length = push_line(self.arr[i], self.arr[j], QUARTER)
+        on, d, length = push_line(self.arr[i], self.arr[j], FOOTPRINT_PERIOD)
         on &= length <= self.ctx.config.push_max_distance
         i, j, d, length = i[on], j[on], d[on], length[on]
         out: dict[int, list[tuple[int, np.ndarray]]] = {}

@@ -31,13 +31,10 @@ import numpy as np
 
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import INF, Inputs, best_starts
-from nodes.planner.geometry.transfer import push_line
+from nodes.planner.geometry.transfer import FOOTPRINT_PERIOD, push_line
 
-#: Yaw period of a push line (a cube looks the same turned by a quarter turn).
-QUARTER = 0.5 * np.pi
 #: How often (expansions) the clock and the stop flag are read.
 CHECK_EVERY = 32
-
 
 
 class ExactLimit(Exception):
@@ -64,7 +61,7 @@ class PoseSearch:
         self.on_line = np.zeros((p, n), dtype=bool)  # pose on a push line into slot k
         for k in range(n):
             target = np.repeat(slot_arr[k:k + 1], p, axis=0)
-            self.on_line[:, k] = push_line(poses.arr, target, QUARTER)[0]
+            self.on_line[:, k] = push_line(poses.arr, target, FOOTPRINT_PERIOD)[0]
         covers = poses.conflict[:, slots]  # (P, n): pose overlaps slot k
         self.cover_bits = [sum(1 << int(c) for c in np.flatnonzero(row)) for row in covers]
         self.on_any = covers.any(-1).astype(int)  # pose overlaps some slot

@@ -40,6 +40,9 @@ from nodes.planner.geometry.obstacles import Obstacles, mask_to_ids
 LINE_TOL = 1e-7
 MIN_PUSH = 1e-4
 YAW_TOL = 1e-9
+#: Yaw period of a block's footprint (a cube looks the same turned a quarter turn):
+#: ``push_line``'s period where poses stand for footprints, not a block's own yaw.
+FOOTPRINT_PERIOD = 0.5 * math.pi
 GRASPS = np.arange(2)
 
 

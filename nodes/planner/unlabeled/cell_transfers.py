@@ -21,7 +21,6 @@ actions for the block's actual yaw (a site's yaw is one of its class's).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -39,10 +38,14 @@ from msgs_py.footprint import (
     to_polygons,
 )
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_bools, words
-from nodes.planner.geometry.transfer import grasp_checks, pick_place_between, push_checks, push_line
+from nodes.planner.geometry.transfer import (
+    FOOTPRINT_PERIOD,
+    grasp_checks,
+    pick_place_between,
+    push_checks,
+    push_line,
+)
 from nodes.planner.unlabeled.rpg import Transfer
-
-QUARTER = 0.5 * math.pi
 
 
 @dataclass(frozen=True)
@@ -164,7 +167,8 @@ class TransferBatch:
         pairs = np.array([(i, j) for i in src for j in dst if i != j], dtype=int).reshape(-1, 2)
         if not len(pairs):
             return []
-        on, d, length = push_line(self.arr[pairs[:, 0]], self.arr[pairs[:, 1]], QUARTER)
+        on, d, length = push_line(self.arr[pairs[:, 0]], self.arr[pairs[:, 1]],
+                                   FOOTPRINT_PERIOD)
         on &= length <= self.ctx.config.push_max_distance
         pairs, d, length = pairs[on], d[on], length[on]
         if not len(pairs):
