@@ -23,9 +23,9 @@ those whose blocks arrived before (extra blocks only get in the way more), so:
 Minimising the sum over every arrival order and every choice of blocks moved off their goal
 is a shortest path over the subsets of slots (``Relaxation``): exact below ``DP_MAX`` slots.
 Above, two cheaper certified bounds, the larger counts: the last two arrivals (when they
-arrive every other slot is filled), and the minimum feedback vertex set of "stands on the
-slot of" among blocks to move (``feedback``: every cycle needs one of its blocks cleared,
-moved twice, so some set of blocks meeting every cycle is). Unlabeled goals: any block may fill any
+arrive every other slot is filled), and the fewest blocks that meet every cycle of "stands
+on the slot of" and close every set of slots that wall each other in (``hitting``: each
+such block moves twice). Unlabeled goals: any block may fill any
 slot, so slots arrive (not blocks), a push is forced unless some block starts on a push line
 into the slot, and no clears are forced.
 
@@ -46,7 +46,7 @@ from msgs_py import Pose2D
 from msgs_py.footprint import block_corners, face_normals
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound_starts import StartSearch, start_ways
-from nodes.planner.bounds.feedback import feedback_vertex_set
+from nodes.planner.bounds.hitting import enclosures, forced_extra
 from nodes.planner.geometry.context import at_pose
 from nodes.planner.geometry.obstacles import Obstacles, mask_to_int, words
 from nodes.planner.geometry.transfer import FOOTPRINT_PERIOD, grasp_checks, push_checks, push_line
@@ -233,9 +233,10 @@ def _solve(relax: Relaxation, misplaced: int, extra_fixed: int, ids: list[int],
             keep = frozenset(b for k, b in enumerate(ids) if kept >> k & 1)
             return LowerBound(misplaced + extra, misplaced, extra, True, keep, relax)
     tail = relax.tail()
-    cycles = feedback_vertex_set(relax.clears, relax.todo)
+    forced = forced_extra(enclosures(relax.asm), relax.todo, relax.exempt, relax.clears,
+                          relax.moved_cost)
     walled = 2 if relax.walls else 0  # one placed block at least away and back
-    extra = max(int(tail) if tail < INF else 0, cycles, walled) + extra_fixed
+    extra = max(int(tail) if tail < INF else 0, forced, walled) + extra_fixed
     return LowerBound(misplaced + extra, misplaced, extra, False)
 
 
