@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from nodes.bench.instances import instance
 from nodes.bench.planner import exact_actions
+from nodes.planner.bounds import hitting
 from nodes.planner.bounds.assembly import Assembly
 from nodes.planner.bounds.bound import DP_MAX, REFERENCE_DP_MAX, labeled_bound
 from nodes.planner.bounds.hitting import enclosures, forced_extra
@@ -101,3 +102,18 @@ def test_the_cheap_terms_are_never_above_the_exact_relaxation(kind, density):
         cheap = labeled_bound(ctx, start, goals, False, dp_max=0)
         exact = labeled_bound(ctx, start, goals, False, dp_max=DP_MAX)
         assert cheap.value <= exact.value, (kind, n, density, seed)
+
+
+def test_a_search_cut_short_gives_less_never_more(monkeypatch):
+    """Two disjoint 3-cycles of "stands on": the lazy rounds find both (2); cut after the
+    first round (no cycle added yet) or out of time before any, the answer stays below."""
+    clears = [0] * 6
+    for a, b in ((0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3)):
+        clears[a] |= 1 << b
+    full = forced_extra([], 0b111111, [False] * 6, clears, 2.0)
+    monkeypatch.setattr(hitting, "MAX_ROUNDS", 1)
+    one_round = forced_extra([], 0b111111, [False] * 6, clears, 2.0)
+    monkeypatch.setattr(hitting, "MAX_ROUNDS", 30)
+    monkeypatch.setattr(hitting, "TOTAL_S", 0.0)
+    no_time = forced_extra([], 0b111111, [False] * 6, clears, 2.0)
+    assert full == 2 and one_round == 0 and no_time == 0
