@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import itertools
 import math
+import operator
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import reduce
 
 import networkx as nx
 import numpy as np
@@ -59,7 +61,7 @@ def enclosures(asm: Assembly) -> list[Enclosure]:
     """Every enclosure of up to ``ENCLOSURE_MAX`` slots reachable from its first slot through
     the slots the fingers of its members' grasps cover (two steps: a square's diagonal)."""
     n = len(asm.ids)
-    touches = [_bits(_union(asm.set_down[c])) for c in range(n)]
+    touches = [_bits(reduce(operator.or_, asm.set_down[c], 0)) for c in range(n)]
     found: dict[int, Enclosure] = {}
     for c in range(n):
         near = set(touches[c]).union(*(touches[u] for u in touches[c]))
@@ -70,13 +72,6 @@ def enclosures(asm: Assembly) -> list[Enclosure]:
                 if mask not in found and _encloses(asm, mask):
                     found[mask] = Enclosure(mask, _last_arrivals(asm, mask))
     return _minimal(found)
-
-
-def _union(masks: Sequence[int]) -> int:
-    out = 0
-    for m in masks:
-        out |= m
-    return out
 
 
 def _bits(mask: int) -> list[int]:
@@ -114,6 +109,8 @@ def forced_extra(groups: Sequence[Enclosure], todo: int, exempt: Sequence[bool],
     graph = _stands_on(clears, todo)
     groups = [g for g in groups if g.mask & todo
               and not any(exempt[c] and todo >> c & 1 for c, _ in g.arrivals)]
+    if any(not g.arrivals for g in groups):  # a layout no plan fills: left to the other terms
+        return 0
     if not groups and graph.number_of_edges() == 0:
         return 0
     return _Program(n, todo, groups, moved_cost).solve(graph)
@@ -151,7 +148,6 @@ class _Program:
             row = np.zeros(self.width)
             row[[col[p] for p in g.arrivals]] = 1.0
             self._add(row, 1.0, np.inf)
-        self.infeasible = any(not g.arrivals for g in groups)
 
     def _add(self, row: np.ndarray, low: float, high: float) -> None:
         self.rows.append(row)
@@ -191,13 +187,9 @@ class _Program:
     def _optimum(self, seconds: float) -> tuple[int, set[int] | None]:
         """(the optimum rounded up, the blocks it moves twice), or (its certified dual
         bound, None) when the solver stops short."""
-        if self.infeasible:  # a layout no plan fills: leave it to the other terms
-            return 0, None
-        rows = np.array(self.rows) if self.rows else np.zeros((0, self.width))
-        res = milp(self.cost, integrality=np.ones(self.width),
-                   bounds=Bounds(0.0, 1.0),
-                   constraints=[LinearConstraint(rows, self.low, self.high)] if self.rows else [],
-                   options={"time_limit": seconds})
+        rows = [LinearConstraint(np.array(self.rows), self.low, self.high)] if self.rows else []
+        res = milp(self.cost, integrality=np.ones(self.width), bounds=Bounds(0.0, 1.0),
+                   constraints=rows, options={"time_limit": seconds})
         if res.status == 0 and res.x is not None:
             value = math.ceil(res.fun - 1e-6)
             return value, {c for c in range(self.n) if res.x[c] > 0.5}
